@@ -1,0 +1,77 @@
+"""Source files and spans.
+
+Every AST node, IR record and diagnostic points back at the text the designer wrote, so a
+warning about a needle in the machine program can still name the DSL line that caused it.
+Spans keep both offsets (for editors, which count in code points) and 1-based line/column
+pairs (for humans); `parent` chains a span to the place that expanded it, e.g. the `apply`
+of a stdlib pattern whose body raised the error ("while expanding ...").
+"""
+
+from __future__ import annotations
+
+import bisect
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True, slots=True)
+class Span:
+    """A half-open range of one source file: [start, end) in code points."""
+
+    file: str
+    line: int
+    column: int
+    end_line: int
+    end_column: int
+    start: int = 0
+    end: int = 0
+    parent: Span | None = field(default=None, compare=False)
+    """Where this span was expanded from (an import or a pattern application)."""
+
+    def __str__(self) -> str:
+        return f"{self.file}:{self.line}:{self.column}"
+
+    def with_parent(self, parent: Span | None) -> Span:
+        return Span(self.file, self.line, self.column, self.end_line, self.end_column,
+                    self.start, self.end, parent)
+
+    def to_json(self) -> list[object]:
+        """Compact, stable form for IR dumps: [file, line, col, end_line, end_col]."""
+        return [self.file, self.line, self.column, self.end_line, self.end_column]
+
+
+UNKNOWN_SPAN = Span("<unknown>", 1, 1, 1, 1)
+
+
+@dataclass(frozen=True)
+class SourceFile:
+    """The text of one input, with a line index for span construction and rendering."""
+
+    path: str
+    text: str
+    _line_starts: tuple[int, ...] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        starts = [0]
+        for i, ch in enumerate(self.text):
+            if ch == "\n":
+                starts.append(i + 1)
+        object.__setattr__(self, "_line_starts", tuple(starts))
+
+    def line_text(self, line: int) -> str:
+        """The text of 1-based `line`, without its newline ('' past the end)."""
+        if line < 1 or line > len(self._line_starts):
+            return ""
+        start = self._line_starts[line - 1]
+        end = self.text.find("\n", start)
+        return self.text[start:] if end < 0 else self.text[start:end]
+
+    def position(self, offset: int) -> tuple[int, int]:
+        """1-based (line, column) of a code-point offset."""
+        offset = max(0, min(offset, len(self.text)))
+        line = bisect.bisect_right(self._line_starts, offset)
+        return line, offset - self._line_starts[line - 1] + 1
+
+    def span(self, start: int, end: int) -> Span:
+        line, col = self.position(start)
+        end_line, end_col = self.position(end)
+        return Span(self.path, line, col, end_line, end_col, start, end)
