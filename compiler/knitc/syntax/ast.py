@@ -10,7 +10,7 @@ formatter and the language server can work on programs that do not resolve.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
-from typing import Any, Union
+from typing import Any
 
 from knitc.source import UNKNOWN_SPAN, Span
 
@@ -171,9 +171,9 @@ class Index(Node):
     index: Expr
 
 
-Expr = Union[Number, String, Bool, Grid, ParamRef, PropRef, Name, ListExpr, Profile, TupleExpr,
-             Unary, Binary, Call, Attr, Index]
-Arg = Union[Expr, Range, KwArg]
+Expr = (Number | String | Bool | Grid | ParamRef | PropRef | Name | ListExpr | Profile | TupleExpr
+        | Unary | Binary | Call | Attr | Index)
+Arg = Expr | Range | KwArg
 
 
 # ---- declarations ----------------------------------------------------------------------------
@@ -295,7 +295,7 @@ class Let(Node):
     value: Expr
 
 
-LayerStmt = Union[SetStmt, UseStmt, ApplyStmt, GridStmt, Let]
+LayerStmt = SetStmt | UseStmt | ApplyStmt | GridStmt | Let
 
 
 @dataclass(frozen=True, slots=True)
@@ -353,7 +353,7 @@ class ExprStmt(Node):
     expr: Expr
 
 
-Stmt = Union[Let, Assign, If, For, MapStmt, ExprStmt]
+Stmt = Let | Assign | If | For | MapStmt | ExprStmt
 
 
 @dataclass(frozen=True, slots=True)
@@ -379,8 +379,8 @@ class ShaperDef(Node):
     body: Block
 
 
-Item = Union[Import, ParamDecl, MachineDecl, NodeDecl, ItfStmt, Connect, Start, PatternLayer,
-             PatternDef, ActionDef, ShaperDef]
+Item = (Import | ParamDecl | MachineDecl | NodeDecl | ItfStmt | Connect | Start | PatternLayer
+        | PatternDef | ActionDef | ShaperDef)
 
 
 @dataclass(frozen=True, slots=True)

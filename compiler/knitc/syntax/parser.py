@@ -113,6 +113,12 @@ class _SyntaxProblem(Exception):
         self.code, self.message, self.span, self.hint = code, message, span, hint
 
 
+def _binary(op: str):
+    def build(self, meta, ch):
+        return ast.Binary(op, ch[0], ch[1], span=self._span(meta))
+    return build
+
+
 @v_args(meta=True)
 class _ToAst(Transformer):
     def __init__(self, source: SourceFile):
@@ -282,11 +288,6 @@ class _ToAst(Transformer):
 
     def compare(self, meta, ch):
         return ast.Binary(str(ch[1]), ch[0], ch[2], span=self._span(meta))
-
-    def _binary(op: str):
-        def build(self, meta, ch):
-            return ast.Binary(op, ch[0], ch[1], span=self._span(meta))
-        return build
 
     add, sub, mul, div, mod = _binary("+"), _binary("-"), _binary("*"), _binary("/"), _binary("%")
 
