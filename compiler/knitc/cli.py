@@ -1,0 +1,201 @@
+"""The `knitc` command line.
+
+Compiler habits: diagnostics on stderr in `path:line:col: severity[CODE]` form, exit status
+0 when clean (warnings allowed), 1 on errors, 2 on usage mistakes and 3 on internal errors;
+outputs are written atomically (a temporary file renamed into place), so a failed run never
+leaves a partial file behind.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import traceback
+
+from knitc import __version__
+from knitc.diagnostics import Diagnostics
+from knitc.driver import PLANNED_STAGES, STAGES, compile_file, emit_json
+
+EXAMPLES = """\
+examples:
+  knitc check examples/glove.knit               check a design, report every problem
+  knitc -D finger_len=26 check examples/glove.knit
+  knitc --emit skeleton examples/sock.knit      print the resolved skeleton IR as JSON
+  knitc --emit ast -o sock.ast.json examples/sock.knit
+  knitc fmt examples/sweater.knit               print the canonical form
+  knitc fmt --check examples/*.knit             exit 1 if a file is not canonical
+  knitc fmt -i examples/sweater.knit            rewrite a file in canonical form
+"""
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a design parameter (`param NAME = ...`); repeatable")
+    p.add_argument("-W", dest="warn", action="append", default=[], choices=["error"],
+                   help="-W error: treat warnings as errors")
+    p.add_argument("-q", "--quiet", action="store_true",
+                   help="print errors only (no warnings, no summary)")
+
+
+def _main_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="knitc", formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Compile a knitc garment description (.knit) for a knitting machine.\n"
+                    "Subcommands: `knitc check FILE`, `knitc fmt [--check] FILE...`.",
+        epilog=EXAMPLES)
+    p.add_argument("file", metavar="FILE", help="the .knit design to compile")
+    p.add_argument("-o", "--output", metavar="OUT",
+                   help="output file (default: standard output for --emit)")
+    p.add_argument("--emit", metavar="IR", choices=STAGES + PLANNED_STAGES,
+                   help="print one intermediate representation as JSON: "
+                        + ", ".join(STAGES) + " (later: " + ", ".join(PLANNED_STAGES) + ")")
+    p.add_argument("--target", choices=["knitout", "dat"],
+                   help="machine format (default: from the -o extension)")
+    p.add_argument("--version", action="version", version=f"knitc {__version__}")
+    _common(p)
+    return p
+
+
+def _check_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="knitc check",
+                                description="Parse, resolve and verify a design; write nothing.")
+    p.add_argument("file", metavar="FILE")
+    _common(p)
+    return p
+
+
+def _fmt_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="knitc fmt",
+                                description="Print .knit files in canonical form.")
+    p.add_argument("files", metavar="FILE", nargs="+")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--check", action="store_true",
+                   help="print nothing; exit 1 if a file is not in canonical form")
+    g.add_argument("-i", "--in-place", action="store_true", help="rewrite the files")
+    return p
+
+
+def _report(diags: Diagnostics, quiet: bool) -> None:
+    items = [d for d in diags.sorted() if d.is_error or not quiet]
+    from knitc.diagnostics import render
+    text = "".join(render(d, diags.sources) for d in items)
+    if text:
+        sys.stderr.write(text)
+    if not quiet and (diags.error_count or diags.warning_count):
+        parts = []
+        if diags.error_count:
+            parts.append(f"{diags.error_count} error{'s' * (diags.error_count != 1)}")
+        if diags.warning_count:
+            parts.append(f"{diags.warning_count} warning{'s' * (diags.warning_count != 1)}")
+        sys.stderr.write(f"knitc: {', '.join(parts)}\n")
+
+
+def write_atomic(path: str, data: str | bytes) -> None:
+    """Write `data` to `path` via a temporary file in the same directory and a rename."""
+    directory = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".knitc-", dir=directory)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data.encode("utf-8") if isinstance(data, str) else data)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _cmd_compile(args: argparse.Namespace) -> int:
+    werror = "error" in args.warn
+    stage = args.emit or "skeleton"
+    result = compile_file(args.file, defines=args.defines,
+                          until="ast" if stage == "ast" else "skeleton", werror=werror)
+    _report(result.diagnostics, args.quiet)
+    if not result.ok:
+        return 1
+    if args.emit in PLANNED_STAGES or (args.emit is None and (args.output or args.target)):
+        what = f"--emit {args.emit}" if args.emit else "machine code generation"
+        sys.stderr.write(f"knitc: error: {what} is not implemented yet: this version stops at "
+                         "the skeleton IR (try --emit skeleton or `knitc check`)\n")
+        return 1
+    if args.emit is None:
+        return 0
+    text = emit_json(result, stage)
+    if args.output:
+        write_atomic(args.output, text)
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
+def _cmd_check(args: argparse.Namespace) -> int:
+    result = compile_file(args.file, defines=args.defines, werror="error" in args.warn)
+    _report(result.diagnostics, args.quiet)
+    return 0 if result.ok else 1
+
+
+def _cmd_fmt(args: argparse.Namespace) -> int:
+    from knitc.source import SourceFile
+    from knitc.syntax.fmt import format_module
+    from knitc.syntax.parser import parse_source
+    status = 0
+    for path in args.files:
+        diags = Diagnostics()
+        try:
+            with open(path, encoding="utf-8") as f:
+                text = f.read()
+        except (OSError, UnicodeDecodeError) as exc:
+            diags.error("E001", f"cannot read `{path}`: {exc}", None)
+            _report(diags, False)
+            status = 1
+            continue
+        module = parse_source(SourceFile(path, text), diags)
+        if module is None:
+            _report(diags, False)
+            status = 1
+            continue
+        out = format_module(module)
+        if args.check:
+            if out != text:
+                sys.stderr.write(f"knitc fmt: {path} is not in canonical form\n")
+                status = 1
+        elif args.in_place:
+            if out != text:
+                write_atomic(path, out)
+        else:
+            sys.stdout.write(out)
+    return status
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        # Options may come before the subcommand (`knitc -D x=1 check f.knit`).
+        sub = next((i for i, a in enumerate(argv) if a in ("check", "fmt")
+                    and (i == 0 or argv[i - 1] not in ("-D", "-o", "--emit", "-W",
+                                                       "--target"))), None)
+        if sub is not None:
+            rest = argv[:sub] + argv[sub + 1:]
+            if argv[sub] == "check":
+                return _cmd_check(_check_parser().parse_args(rest))
+            return _cmd_fmt(_fmt_parser().parse_args(rest))
+        return _cmd_compile(_main_parser().parse_args(argv))
+    except SystemExit as exc:  # argparse: --help, --version, usage errors
+        return exc.code if isinstance(exc.code, int) else 2
+    except KeyboardInterrupt:
+        sys.stderr.write("knitc: interrupted\n")
+        return 130
+    except BrokenPipeError:
+        return 0
+    except Exception as exc:  # a bug in knitc, never the designer's fault
+        sys.stderr.write(
+            f"knitc: internal error: {type(exc).__name__}: {exc}\n"
+            "This is a bug in knitc, not in your design. Please report it with the input "
+            "file and this message:\n")
+        traceback.print_exc(file=sys.stderr)
+        return 3
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,95 @@
+"""The pipeline, readable in one place.
+
+    source ──parse──▶ AST ──resolve + verify──▶ Skeleton ──(later: shape, trace, ...)
+
+Each stage is a pure function of the previous IR plus a `Diagnostics` collection; the driver
+stops after the first stage that reported errors, because later stages would only repeat
+them in other words. `compile_file` is what the CLI, the tests and (later) the language
+server call.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from typing import Any
+
+from knitc.diagnostics import Diagnostics
+from knitc.ir import skeleton as sk
+from knitc.passes.resolve import parse_define, resolve
+from knitc.source import SourceFile
+from knitc.syntax import ast
+from knitc.syntax.parser import parse_source
+
+STAGES = ("ast", "skeleton")
+"""IRs that `--emit` can print today, in pipeline order."""
+
+PLANNED_STAGES = ("stitch-graph", "trace", "slices", "schedule", "machine")
+
+
+@dataclass
+class Result:
+    diagnostics: Diagnostics
+    module: ast.Module | None = None
+    skeleton: sk.Skeleton | None = None
+    stage_reached: str = "none"
+    defines: dict[str, ast.Node] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return not self.diagnostics.has_errors
+
+
+def compile_source(text: str, path: str, *, defines: list[str] = (), until: str = "skeleton",
+                   werror: bool = False) -> Result:
+    """Run the front end on `text` up to and including stage `until`."""
+    diags = Diagnostics()
+    result = Result(diags)
+    parsed_defines: dict[str, ast.Node] = {}
+    for d in defines:
+        got = parse_define(d, diags)
+        if got is not None:
+            parsed_defines[got[0]] = got[1]
+    result.defines = parsed_defines
+    module = parse_source(SourceFile(path, text), diags)
+    if module is None:
+        return result
+    result.module, result.stage_reached = module, "ast"
+    if until == "ast" or diags.has_errors:
+        return _finish(result, werror)
+    skel = resolve(module, path, diags, parsed_defines)
+    result.skeleton = skel
+    result.stage_reached = "skeleton"
+    return _finish(result, werror)
+
+
+def _finish(result: Result, werror: bool) -> Result:
+    if werror:
+        result.diagnostics.promote_warnings()
+    return result
+
+
+def compile_file(path: str, **kw: Any) -> Result:
+    """Read `path` (UTF-8) and compile it; unreadable files become diagnostics."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+    except (OSError, UnicodeDecodeError) as exc:
+        diags = Diagnostics()
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        diags.error("E001", f"cannot read `{path}`: {reason}", None)
+        return Result(diags)
+    return compile_source(text, path, **kw)
+
+
+def emit_json(result: Result, stage: str) -> str:
+    """The stable JSON text of one IR (`knitc --emit STAGE`)."""
+    if stage == "ast":
+        assert result.module is not None
+        obj: Any = ast.to_json(result.module)
+    elif stage == "skeleton":
+        assert result.skeleton is not None
+        obj = sk.to_json(result.skeleton)
+    else:
+        raise ValueError(stage)
+    return json.dumps(obj, indent=1, ensure_ascii=False) + "\n"
