@@ -319,6 +319,14 @@ class _Resolver:
                 found = found or p
         return found
 
+    def _prop_ref(self, node: str | None, prop: str, span: Span) -> Value:
+        """`@prop` as seen by an expression: a constant width reads as a plain number."""
+        v = self._prop(node, prop, span)
+        if isinstance(v, Profile) and v.is_constant:
+            x = v.points[0][1]
+            return int(x) if float(x).is_integer() else x
+        return v
+
     def _prop(self, node: str | None, prop: str, span: Span) -> Value:
         if node is None:
             if not self.prop_stack:
@@ -349,7 +357,7 @@ class _Resolver:
             return value
         self.prop_stack.append(key)
         try:
-            raw = Evaluator(self._param, self._prop).eval(p.value)
+            raw = Evaluator(self._param, self._prop_ref).eval(p.value)
             value = self._check(spec, raw, p, f"`{prop}`")
         except EvalError as err:
             if len(self.prop_stack) == 1:
@@ -537,7 +545,7 @@ class _Resolver:
         if node is None:
             raise EvalError("E406", f"`@{prop}` needs a node here", span,
                             "write `@node.prop`")
-        return self._prop(node, prop, span)
+        return self._prop_ref(node, prop, span)
 
     def _machine(self, decls: list[ast.MachineDecl]) -> sk.Machine:
         for extra in decls[1:]:
