@@ -347,11 +347,9 @@ def verify(skel: Skeleton, diags: Diagnostics) -> None:
             continue
         if c.a.node in skel.tainted or c.b.node in skel.tainted:
             continue
+        # Gauge changes the needle spacing, not the stitch count, so sizes compare the same
+        # way across a half/full gauge boundary.
         big, small = (a, b) if a.size > b.size else (b, a)
-        ga = skel.nodes[c.a.node].props.get("gauge")
-        gb = skel.nodes[c.b.node].props.get("gauge")
-        if ga != gb:
-            continue  # different gauges are bound by spreading (ch. 5.2); sizes differ by design
         if big.size == 2 * small.size and big.sides == 2:
             diags.warning("W501", f"`{big.id}` has {big.size} stitches and `{small.id}` has "
                           f"{small.size}: the tube is closed 2:1 before the merge", c.span,
@@ -374,6 +372,13 @@ def verify(skel: Skeleton, diags: Diagnostics) -> None:
                     diags.error("E504", f"the branches of split `{node.name}` need {total} "
                                 f"stitches but its base has {base.size}", node.span,
                                 hint="widen the node at the base or narrow the branches")
+        if node.kind == "joint":
+            bot, top = paths
+            if bot.size is not None and top.size is not None and bot.size != top.size:
+                diags.error("E509", f"joint `{node.name}` joins {bot.size} stitches at its "
+                            f"bottom to {top.size} at its top", node.span,
+                            hint="short rows keep the course size: make both neighbours the "
+                                 "same size, and shape with a sheet's width profile instead")
         for itf in paths:
             if itf.size is None and node.kind in ("joint", "split"):
                 diags.error("E505", f"cannot infer the size of `{itf.id}`", node.span,

@@ -425,9 +425,11 @@ class _Resolver:
         shaper = props.get("shaper")
         if isinstance(shaper, str) and shaper not in sk.SHAPERS:
             prog = self.defs.shapers.get(shaper)
-            if prog is not None and len(prog.params) != 2:
+            if prog is not None and (len(prog.params) < 2 or any(
+                    q.default is None for q in prog.params[2:])):
                 p = self._prop_expr(decl.name.name, "shaper")
-                self.diags.error("E310", f"shaper `{shaper}` must take two parameters (M, N)",
+                self.diags.error("E310", f"shaper `{shaper}` must take (M, N) and give defaults "
+                                 "to any further parameters",
                                  p.value.span if p else decl.span,
                                  notes=[Note("defined here", prog.name.span)])
 
