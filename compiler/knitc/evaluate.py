@@ -9,6 +9,7 @@ detect cycles, and `-D` overrides are parsed by the same grammar.
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -89,8 +90,8 @@ def show(v: object) -> str:
     """A value as the designer would write it, for messages."""
     if isinstance(v, bool):
         return "true" if v else "false"
-    if isinstance(v, float) and v.is_integer():
-        return str(int(v))
+    if isinstance(v, float):
+        return str(int(v)) if v.is_integer() else f"{v:.6g}"
     if isinstance(v, str):
         return f'"{v}"'
     if isinstance(v, Profile):
@@ -233,8 +234,10 @@ class Evaluator:
     def _Call(self, e: ast.Call) -> Value:
         if not isinstance(e.func, ast.Name) or e.func.id not in BUILTINS:
             name = e.func.id if isinstance(e.func, ast.Name) else None
+            close = difflib.get_close_matches(name or "", list(BUILTINS), n=1, cutoff=0.6)
             raise EvalError("E201", f"unknown function `{name}`" if name else
                             "only named functions can be called", e.func.span,
+                            f"did you mean `{close[0]}`?" if close else
                             "available here: " + ", ".join(sorted(BUILTINS)))
         fn, (lo, hi) = BUILTINS[e.func.id]
         args = []
@@ -248,8 +251,9 @@ class Evaluator:
                             e.span)
         try:
             return fn(*args)
-        except (ValueError, OverflowError) as exc:
-            raise EvalError("E305", f"`{e.func.id}` failed: {exc}", e.span) from None
+        except (ValueError, OverflowError):
+            raise EvalError("E305", f"`{e.func.id}` is undefined for "
+                            + ", ".join(show(a) for a in args), e.span) from None
 
     def _TupleExpr(self, e: ast.TupleExpr) -> Value:
         return tuple(self.eval(i) for i in e.items)
@@ -291,6 +295,8 @@ def arith(op: str, x: float, y: float, span: Span) -> int | float:
             case "%":
                 return x % y
             case "^":
+                if abs(y) > 1024 or (abs(x) > 1 and abs(y) * math.log10(abs(x)) > 300):
+                    raise EvalError("E305", "number too large", span)
                 return x ** y
             case "<":
                 return x < y

@@ -71,13 +71,21 @@ class _Defs:
                 return kind[:-1]
         return None
 
-    def add(self, d: ast.Node, diags: Diagnostics, *, imported: bool) -> None:
+    def known(self, name: str) -> bool:
+        """Defined, or possibly defined by an import that failed (already reported)."""
+        return self.kind_of(name) is not None or self.all_lenient or name in self.lenient
+
+    def add(self, d: ast.Node, diags: Diagnostics, *, imported: bool,
+            at: Span | None = None) -> None:
         name = d.name.name
         table = {ast.PatternDef: self.patterns, ast.ActionDef: self.actions,
                  ast.ShaperDef: self.shapers}[type(d)]
+        if table.get(name) is d:
+            return  # the same definition reached through two imports
         if name in self.origin:
             if imported:
-                diags.error("E204", f"`{name}` is imported twice", d.name.span,
+                diags.error("E204", f"two imported definitions are named `{name}`",
+                            at or d.name.span,
                             notes=[Note("first defined here", self.origin[name])])
                 return
             if self.kind_of(name) is not None and not self._imported(name):
@@ -96,6 +104,24 @@ class _Defs:
 
     def __post_init__(self) -> None:
         self._imports: set[str] = set()
+        self.lenient: set[str] = set()
+        self.all_lenient = False
+
+    def failed_import(self, imp: ast.Import) -> None:
+        if imp.names is None:
+            self.all_lenient = True
+        else:
+            self.lenient.update(n.name for n in imp.names)
+
+
+class _Silent(EvalError):
+    """An evaluation that failed because of an error already reported (no new message)."""
+
+    def __init__(self, span: Span):
+        super().__init__("E000", "", span)
+
+
+_FAILED = object()
 
 
 class _Loader:
@@ -118,6 +144,7 @@ class _Loader:
             if not res.is_file():
                 self.diags.error("E202", f"no standard-library module `{dotted}`", imp.span,
                                  hint=self._stdlib_hint(dotted))
+                defs.failed_import(imp)
                 return
             key, display, text = f"std:{dotted}", f"<stdlib>/{'/'.join(imp.module)}.knit", (
                 res.read_text(encoding="utf-8"))
@@ -126,7 +153,9 @@ class _Loader:
             path = (base / imp.path).resolve()
             if not path.is_file():
                 self.diags.error("E203", f"cannot find `{imp.path}`", imp.span,
-                                 hint=f"imports are relative to the importing file ({base})")
+                                 hint=f"looked for {path}; imports are relative to the "
+                                      "importing file")
+                defs.failed_import(imp)
                 return
             key, display = str(path), str(base / imp.path) if not importer.startswith("<") \
                 else imp.path
@@ -134,13 +163,16 @@ class _Loader:
                 text = path.read_text(encoding="utf-8")
             except (OSError, UnicodeDecodeError) as exc:
                 self.diags.error("E203", f"cannot read `{imp.path}`: {exc}", imp.span)
+                defs.failed_import(imp)
                 return
         if key in self.loading:
             self.diags.error("E206", "import cycle", imp.span,
                              hint="modules must not import each other in a loop")
+            defs.failed_import(imp)
             return
         module = self.load_file(key, text, display)
         if module is None:
+            defs.failed_import(imp)
             return
         self.loading.append(key)
         try:
@@ -165,14 +197,18 @@ class _Loader:
             wanted = {}
             for n in imp.names:
                 if sub.kind_of(n.name) is None:
-                    self.diags.error("E208", f"`{n.name}` is not defined in the imported module",
-                                     n.span, hint=_suggest(n.name, sub.origin))
+                    where = ".".join(imp.module) if imp.module else imp.path
+                    self.diags.error("E208", f"`{n.name}` is not defined in `{where}`",
+                                     n.span, hint=_suggest(n.name, sub.origin) or (
+                                         "it defines " + ", ".join(f"`{x}`" for x in sub.origin)
+                                         if sub.origin else "it defines nothing"))
+                    defs.lenient.add(n.name)
                 else:
                     wanted[n.name] = n
         for table in (sub.patterns, sub.actions, sub.shapers):
             for name, d in table.items():
                 if wanted is None or name in wanted:
-                    defs.add(d, self.diags, imported=True)
+                    defs.add(d, self.diags, imported=True, at=imp.span)
 
     @staticmethod
     def _stdlib_hint(dotted: str) -> str:
@@ -215,8 +251,9 @@ class _Resolver:
         self._collect_params()
         self._collect_nodes()
         machine = self._machine([i for i in items if isinstance(i, ast.MachineDecl)])
-        params = {name: self._param(name, decl.name.span)
+        params = {name: self._param_value(name, decl.name.span)
                   for name, decl in self.param_decls.items()}
+        params = {k: v for k, v in params.items() if v is not None}
         nodes: dict[str, sk.PrimNode] = {}
         for name, decl in self.node_decls.items():
             nodes[name] = self._node(decl, machine)
@@ -232,6 +269,13 @@ class _Resolver:
             self._check_action(d)
         for d in self.defs.shapers.values():
             self._check_shaper(d)
+        for item in self.module.items:
+            if isinstance(item, ast.PatternDef) and item.name.name in self.node_decls:
+                self.diags.warning(
+                    "W201", f"`pattern {item.name.name}(...)` defines a reusable pattern; it "
+                    f"does not pattern the node `{item.name.name}`", item.name.span,
+                    hint=f"to pattern the node, write `pattern {item.name.name} {{ ... }}` "
+                         "without parentheses")
         for d in self.defs.patterns.values():
             self._check_layer_body(d.body, {p.name.name for p in d.params}, d.params)
         skel.patterns = dict(self.defs.patterns)
@@ -260,6 +304,8 @@ class _Resolver:
 
     def _param(self, name: str, span: Span) -> Value:
         if name in self.param_values:
+            if self.param_values[name] is _FAILED:
+                raise _Silent(span)
             return self.param_values[name]
         decl = self.param_decls.get(name)
         if decl is None:
@@ -268,6 +314,8 @@ class _Resolver:
                             or f"declare it with `param {name} = ...`")
         if name in self.param_stack:
             cycle = self.param_stack[self.param_stack.index(name):] + [name]
+            if len(cycle) == 2:
+                raise EvalError("E404", f"parameter `#{name}` refers to itself", span)
             raise EvalError("E404", "parameters refer to each other in a cycle: " +
                             " -> ".join(f"#{c}" for c in cycle), span)
         self.param_stack.append(name)
@@ -275,15 +323,24 @@ class _Resolver:
             expr = self.defines.get(name, decl.value)
             value = Evaluator(self._param, self._no_props).eval(expr)
         except EvalError as err:
-            if name == self.param_stack[0]:
-                self._report(err)
-                value = 0
-            else:
+            if name != self.param_stack[0]:
                 raise
+            self._report(err)
+            self.param_values[name] = _FAILED
+            raise _Silent(span) from None
         finally:
             self.param_stack.pop()
         self.param_values[name] = value
         return value
+
+    def _param_value(self, name: str, span: Span) -> Value | None:
+        try:
+            return self._param(name, span)
+        except _Silent:
+            return None
+        except EvalError as err:
+            self._report(err)
+            return None
 
     @staticmethod
     def _no_props(node: str | None, prop: str, span: Span) -> Value:
@@ -292,7 +349,8 @@ class _Resolver:
                         "`#params` instead")
 
     def _report(self, err: EvalError) -> None:
-        self.diags.error(err.code, err.message, err.span, hint=err.hint)
+        if not isinstance(err, _Silent):
+            self.diags.error(err.code, err.message, err.span, hint=err.hint)
         if self.prop_stack:
             self.tainted.add(self.prop_stack[0][0])
 
@@ -309,7 +367,6 @@ class _Resolver:
                 if name in ("before", "after"):
                     self.diags.error("E210", f"`{name}` is reserved for global pattern layers",
                                      item.name.span, hint="choose another node name")
-                    continue
                 self.node_decls[name] = item
 
     def _prop_expr(self, node: str, prop: str) -> ast.Prop | None:
@@ -346,6 +403,8 @@ class _Resolver:
                             _suggest(prop, sk.NODE_PROPS[kind]))
         if key in self.prop_stack:
             cycle = self.prop_stack[self.prop_stack.index(key):] + [key]
+            if len(cycle) == 2:
+                raise EvalError("E407", f"`@{node}.{prop}` refers to itself", span)
             raise EvalError("E407", "properties refer to each other in a cycle: " +
                             " -> ".join(f"@{n}.{p}" for n, p in cycle), span)
         p = self._prop_expr(node, prop)
@@ -438,13 +497,15 @@ class _Resolver:
         kind = spec.kind
 
         def fail(msg: str, hint: str | None = None) -> EvalError:
+            if hint is None and isinstance(v, Word) and v.name in self.param_decls:
+                hint = f"did you mean `#{v.name}`?"
             return EvalError("E311", msg, span, hint)
 
         if kind in ("int", "number"):
             if isinstance(v, bool) or not isinstance(v, int | float):
                 raise fail(f"{what} must be a number, got {type_name(v)}")
             if kind == "int":
-                if not float(v).is_integer():
+                if isinstance(v, float) and not v.is_integer():
                     raise fail(f"{what} must be a whole number, got {show(v)}",
                                "use round(...), floor(...) or ceil(...)")
                 v = int(v)
@@ -464,7 +525,7 @@ class _Resolver:
                 raise fail(f"{what} must be one of {_choices(spec.choices)}, got {type_name(v)}")
             if word in spec.choices:
                 return word
-            if kind == "shaper" and word in self.defs.shapers:
+            if kind == "shaper" and (word in self.defs.shapers or self.defs.known(word)):
                 return word
             extra = list(self.defs.shapers) if kind == "shaper" else []
             raise EvalError("E312", f"{what} cannot be `{word}`", span,
@@ -500,8 +561,11 @@ class _Resolver:
             items = v if isinstance(v, tuple) else (v,)
             out = []
             for x in items:
-                if isinstance(x, bool) or not isinstance(x, int) or not 1 <= x <= 10:
-                    raise fail(f"{what} must list carriers between 1 and 10, got {show(x)}")
+                if isinstance(x, bool) or not isinstance(x, int):
+                    raise fail(f"{what} must list carriers by number, got {show(x)}")
+                if not 1 <= x <= 10:
+                    raise EvalError("E313", f"{what} must list carriers between 1 and 10, "
+                                    f"got {show(x)}", span)
                 if x in out:
                     raise fail(f"carrier {x} is listed twice")
                 out.append(x)
@@ -571,8 +635,10 @@ class _Resolver:
         name = ref.node.name
         node = nodes.get(name)
         if node is None:
+            close = difflib.get_close_matches(name, list(nodes), n=1, cutoff=0.6)
+            self.tainted.update(close)  # the node the designer probably meant
             self.diags.error("E211", f"unknown node `{name}`", ref.node.span,
-                             hint=_suggest(name, nodes))
+                             hint=f"did you mean `{close[0]}`?" if close else None)
             return None
         path = ref.path.name
         if node.kind == "split":
@@ -604,17 +670,25 @@ class _Resolver:
         return sk.ItfId(name, path)
 
     def _topology(self, skel: sk.Skeleton) -> None:
+        stated: dict[sk.ItfId, Span] = {}
         for item in self.module.items:
             if isinstance(item, ast.Connect):
                 a, b = self._itf(item.a, skel.nodes), self._itf(item.b, skel.nodes)
                 if a is not None and b is not None:
                     skel.connections.append(sk.Connection(a, b, item.span))
+                else:  # the other end is left unconnected only because of this error
+                    self.tainted.update((item.a.node.name, item.b.node.name))
             elif isinstance(item, ast.ItfStmt):
                 itf_id = self._itf(item.itf, skel.nodes)
                 if itf_id is None:
                     continue
                 itf = skel.interfaces[itf_id]
                 if item.state is not None:
+                    if itf_id in stated:
+                        self.diags.warning("W504", f"the state of `{itf_id}` is set twice; "
+                                           "the later one wins", item.span,
+                                           notes=[Note("first set here", stated[itf_id])])
+                    stated[itf_id] = item.span
                     itf.state = item.state
                     itf.span = item.span
                 if item.state == "closed":
@@ -668,7 +742,7 @@ class _Resolver:
                 self._check_expr(where, "query", scope)
             if isinstance(stmt, ast.UseStmt):
                 name = stmt.action.name
-                if name not in self.defs.actions and name not in BUILTIN_ACTIONS:
+                if not self.defs.known(name) and name not in BUILTIN_ACTIONS:
                     self.diags.error("E217", f"unknown action `{name}`", stmt.action.span,
                                      hint=_suggest(name, list(self.defs.actions)
                                                    + list(BUILTIN_ACTIONS))
@@ -686,6 +760,8 @@ class _Resolver:
         d = self.defs.patterns.get(name)
         for a in stmt.args:
             self._check_expr(a.value if isinstance(a, ast.KwArg) else a, "query", scope)
+        if d is None and self.defs.known(name):
+            return
         if d is None:
             self.diags.error("E218", f"unknown pattern `{name}`", stmt.pattern.span,
                              hint=_suggest(name, self.defs.patterns)
@@ -704,7 +780,9 @@ class _Resolver:
             if isinstance(a, ast.KwArg):
                 if a.name.name not in formals:
                     self.diags.error("E219", f"`{name}` has no parameter `{a.name.name}`",
-                                     a.name.span, hint=_suggest(a.name.name, formals))
+                                     a.name.span, hint=_suggest(a.name.name, formals) or (
+                                         "its parameters: " + ", ".join(formals) if formals
+                                         else f"`{name}` takes no parameters"))
                 given.add(a.name.name)
         missing = [p.name.name for p in d.params if p.default is None and p.name.name not in
                    given]
@@ -714,6 +792,7 @@ class _Resolver:
                              notes=[Note("defined here", d.name.span)])
 
     def _check_grid(self, grid: ast.Grid, mode: str) -> None:
+        crossed = False
         for row in grid.rows:
             for cell in row:
                 if cell.text == ".":
@@ -723,7 +802,8 @@ class _Resolver:
                                      cell.span, hint=_suggest(cell.text, INSTRUCTIONS) or
                                      "use K P T M FR1 FR2 FL1 FL2 BR1 BR2 BL1 BL2 XR+ XR- XL+ "
                                      "XL- S, or `.` to leave a stitch as it is")
-                elif mode == "stretch" and cell.text in CROSSES:
+                elif mode == "stretch" and cell.text in CROSSES and not crossed:
+                    crossed = True
                     self.diags.error("E315", "a stretched grid cannot hold crosses", cell.span,
                                      hint="scaling would tear cable pairs apart; use `tile` or "
                                           "`draw`")
@@ -805,6 +885,7 @@ class _Resolver:
                     self.diags.error("E222", f"`{stmt.name.name}` is assigned before `let`",
                                      stmt.name.span,
                                      hint=f"declare it first: `let {stmt.name.name} = ...`")
+                    scope.add(stmt.name.name)
                 self._check_expr(stmt.value, ctx, scope)
             elif isinstance(stmt, ast.If):
                 self._check_expr(stmt.cond, ctx, scope)
@@ -862,7 +943,9 @@ def parse_define(text: str, diags: Diagnostics) -> tuple[str, ast.Node] | None:
                     "`-D finger_len=26`")
         return None
     own = Diagnostics()
-    module = parse_source(SourceFile("<command line>", f"param {name} = {value}"), own)
+    source = SourceFile(f"<-D {name}>", f"param {name} = {value}")
+    module = parse_source(source, own)
+    diags.add_source(source)
     if module is None or len(module.items) != 1:
         diags.error("E408", f"cannot read the value of `-D {text}`", None,
                     hint="values are knitc expressions: numbers, words, strings, lists, "

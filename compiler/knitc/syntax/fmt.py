@@ -150,8 +150,9 @@ class _Expr:
             case ast.ListExpr(items=items):
                 return "[" + ", ".join(self.expr(i) for i in items) + "]"
             case ast.Profile(points=points):
-                return "[" + ", ".join(
-                    f"{self.expr(p.t)}: {self.expr(p.value)}" for p in points) + "]"
+                return (
+                    "[" + ", ".join(f"{self.expr(p.t)}: {self.expr(p.value)}" for p in points) + "]"
+                )
             case ast.TupleExpr(items=items):
                 inner = ", ".join(self.expr(i) for i in items)
                 return f"({inner},)" if len(items) == 1 else f"({inner})"
@@ -189,8 +190,10 @@ class _Expr:
         return ", ".join(self.arg(a) for a in args)
 
     def params(self, params: Sequence[ast.ParamDef]) -> str:
-        return ", ".join(p.name.name if p.default is None
-                         else f"{p.name.name} = {self.expr(p.default)}" for p in params)
+        return ", ".join(
+            p.name.name if p.default is None else f"{p.name.name} = {self.expr(p.default)}"
+            for p in params
+        )
 
 
 def format_expr(expr: ast.Node, indent: str = "") -> str:
@@ -254,8 +257,7 @@ class _Comments:
         comments = sorted(module.comments, key=lambda c: c.span.start)
         self._place(id(module), module.items, comments)
 
-    def _place(self, key: int, children: Sequence[ast.Node],
-               comments: list[ast.Comment]) -> None:
+    def _place(self, key: int, children: Sequence[ast.Node], comments: list[ast.Comment]) -> None:
         if not comments:
             return
         self.keys_with_comments.add(key)
@@ -295,8 +297,9 @@ class _Printer:
         self.comments = _Comments(module)
 
     # -- sequences with comments and blank lines
-    def seq(self, key: int, children: Sequence[ast.Node], indent: str,
-            render: _Render) -> list[str]:
+    def seq(
+        self, key: int, children: Sequence[ast.Node], indent: str, render: _Render
+    ) -> list[str]:
         cm = self.comments
         out: list[str] = []
         prev_last: int | None = None
@@ -327,15 +330,15 @@ class _Printer:
             unit(c.span.line, c.span.end_line, comment(c))
         return out
 
-    def braced(self, head: str, key: int, children: Sequence[ast.Node], indent: str,
-               render: _Render) -> list[str]:
+    def braced(
+        self, head: str, key: int, children: Sequence[ast.Node], indent: str, render: _Render
+    ) -> list[str]:
         """`head {` + one element per line + `}`, or `head {}`."""
         if not children and key not in self.comments.keys_with_comments:
             return [head + " {}"]
         return [head + " {", *self.seq(key, children, indent + INDENT, render), indent + "}"]
 
-    def prop_block(self, head: str, key: int, props: Sequence[ast.Prop],
-                   indent: str) -> list[str]:
+    def prop_block(self, head: str, key: int, props: Sequence[ast.Prop], indent: str) -> list[str]:
         if props and key not in self.comments.keys_with_comments:
             line = head + " { " + ", ".join(self.prop(p, indent)[0] for p in props) + " }"
             if "\n" not in line and len(line) <= WIDTH:
@@ -355,18 +358,19 @@ class _Printer:
         ex = _Expr(indent)
         match node:
             case ast.Import():
-                target = (".".join(node.module) if node.module is not None
-                          else _string(node.path or ""))
-                names = (" (" + ", ".join(n.name for n in node.names) + ")"
-                         if node.names else "")
+                target = (
+                    ".".join(node.module) if node.module is not None else _string(node.path or "")
+                )
+                names = " (" + ", ".join(n.name for n in node.names) + ")" if node.names else ""
                 return [f"{indent}import {target}{names}"]
             case ast.ParamDecl():
                 return [f"{indent}param {node.name.name} = {ex.expr(node.value)}"]
             case ast.MachineDecl():
                 return self.prop_block(f"{indent}machine", id(node), node.props, indent)
             case ast.NodeDecl():
-                return self.prop_block(f"{indent}{node.kind} {node.name.name}", id(node),
-                                       node.props, indent)
+                return self.prop_block(
+                    f"{indent}{node.kind} {node.name.name}", id(node), node.props, indent
+                )
             case ast.ItfStmt():
                 head = indent + self.itf(node.itf, ex)
                 if node.state is not None:
@@ -381,14 +385,20 @@ class _Printer:
             case ast.Start():
                 return [f"{indent}start {self.itf(node.itf, ex)}"]
             case ast.PatternLayer():
-                return self.braced(f"{indent}pattern {node.target.name}", id(node), node.body,
-                                   indent, self.stmt)
+                return self.braced(
+                    f"{indent}pattern {node.target.name}", id(node), node.body, indent, self.stmt
+                )
             case ast.PatternDef():
                 head = f"{indent}pattern {node.name.name}({ex.params(node.params)})"
                 return self.braced(head, id(node), node.body, indent, self.stmt)
             case ast.ActionDef():
-                return self.braced(f"{indent}action {node.name.name}", id(node), node.items,
-                                   indent, self.action_item)
+                return self.braced(
+                    f"{indent}action {node.name.name}",
+                    id(node),
+                    node.items,
+                    indent,
+                    self.action_item,
+                )
             case ast.ShaperDef():
                 head = f"{indent}shaper {node.name.name}({ex.params(node.params)})"
                 return self.block(head, node.body, indent)
@@ -416,8 +426,10 @@ class _Printer:
             case ast.UseStmt():
                 return [f"{indent}use {node.action.name}{self.where(node.where, ex)}"]
             case ast.ApplyStmt():
-                return [f"{indent}apply {node.pattern.name}({ex.args(node.args)})"
-                        f"{self.where(node.where, ex)}"]
+                return [
+                    f"{indent}apply {node.pattern.name}({ex.args(node.args)})"
+                    f"{self.where(node.where, ex)}"
+                ]
             case ast.GridStmt():
                 return [f"{indent}{node.mode} {ex.expr(node.grid)}{self.where(node.where, ex)}"]
             case ast.Let():
@@ -443,7 +455,7 @@ class _Printer:
         lines = self.block(f"{indent}if {ex.expr(node.cond)}", node.then, indent)
         if isinstance(node.orelse, ast.If):
             rest = self.if_(node.orelse, indent, ex)
-            rest[0] = rest[0][len(indent):]
+            rest[0] = rest[0][len(indent) :]
         elif isinstance(node.orelse, ast.Block):
             rest = self.block("", node.orelse, indent)
             rest[0] = rest[0].lstrip()

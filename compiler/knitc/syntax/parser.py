@@ -60,6 +60,11 @@ def _can_shift(parse_table, state_stack: list[int], token_type: str) -> bool:
         stack.append(goto)
 
 
+# No keyword is ever followed by `.` (a number such as `.5` aside), so a keyword-like word
+# followed by one is a name: the node in `start.top -> cuff.bottom`.
+_DOT_NEXT = re.compile(r"(?:\s|//[^\n]*|/\*(?:.|\n)*?\*/)*\.(?!\d)")
+
+
 class _ContextualKeywords:
     """Wraps Lark's contextual lexer: a keyword the parser cannot shift becomes a NAME."""
 
@@ -69,14 +74,20 @@ class _ContextualKeywords:
     def lex(self, lexer_state, parser_state):
         table = parser_state.parse_conf.parse_table
         for tok in self.inner.lex(lexer_state, parser_state):
-            if tok.type in _KEYWORD_TYPES and not _can_shift(table, parser_state.state_stack,
-                                                             tok.type):
+            if tok.type in _KEYWORD_TYPES and (
+                    not _can_shift(table, parser_state.state_stack, tok.type)
+                    or _DOT_NEXT.match(_text(lexer_state), tok.end_pos)):
                 if _can_shift(table, parser_state.state_stack, "NAME"):
                     tok = Token.new_borrow_pos("NAME", tok.value, tok)
             yield tok
 
     def __getattr__(self, name):
         return getattr(self.inner, name)
+
+
+def _text(lexer_state) -> str:
+    text = lexer_state.text
+    return getattr(text, "text", text)  # a TextSlice since Lark 1.3, a str before
 
 
 _comment_sink: list[list[Token]] = []
@@ -412,9 +423,21 @@ def _word(terminal: str) -> str:
     return _TERMINAL_WORDS.get(terminal, f"`{terminal.lower()}`")
 
 
+_LAYER_START = {"KW_SET", "KW_USE", "KW_APPLY", "GRID_MODE", "KW_LET"}
+_TOP_START = {"KW_IMPORT", "KW_PARAM", "KW_MACHINE", "NODE_KIND", "KW_PATTERN", "KW_ACTION",
+              "KW_SHAPER", "KW_START"}
+_LAYER_WORDS = ("set", "use", "apply", "draw", "stretch", "tile", "let")
+
+
 def _describe_expected(expected: set[str]) -> str:
     names = set(expected)
     words: list[str] = []
+    if _TOP_START <= names:
+        names -= _TOP_START
+        words.append("a declaration")
+    if _LAYER_START <= names:
+        names -= _LAYER_START
+        words.append("a layer statement (" + ", ".join(f"`{w}`" for w in _LAYER_WORDS) + ")")
     if _EXPR_START <= names:
         names -= _EXPR_START | {"GRID", "TRUE", "FALSE", "MINUS", "NOT"}
         words.append("an expression")
@@ -425,7 +448,7 @@ def _describe_expected(expected: set[str]) -> str:
     if not words:
         return "something else"
     if len(words) > 6:
-        words = words[:6] + ["..."]
+        words = words[:5] + ["another token"]
     if len(words) == 1:
         return words[0]
     return ", ".join(words[:-1]) + " or " + words[-1]
@@ -454,6 +477,8 @@ def _hint(tok: Token, expected: set[str]) -> str | None:
         return "add `:` between a property name and its value"
     if tok.type == "NAME" and {"COMMA", "RPAR"} <= expected:
         return "separate arguments with `,`"
+    if text == "}" and "NAME" in expected and "NUMBER" in expected:
+        return "an expression is missing before `}` (e.g. a query after `where`)"
     if tok.type == "NAME" and "INSTR" in expected:
         return ("`set` takes one of the 17 instructions: K P T M FR1 FR2 FL1 FL2 BR1 BR2 "
                 "BL1 BL2 XR+ XR- XL+ XL- S; use `use NAME` for a stitch action")
@@ -516,8 +541,50 @@ def _chunks(text: str) -> list[_Chunk]:
     return chunks
 
 
+def _open_brackets(text: str, start: int, end: int) -> list[int]:
+    """Offsets of the brackets still open at `end`, scanning from `start` (skips strings
+    and comments)."""
+    stack: list[int] = []
+    i = start
+    while i < end:
+        if text.startswith('"""', i):
+            j = text.find('"""', i + 3)
+            i = len(text) if j < 0 else j + 3
+            continue
+        ch = text[i]
+        if ch == '"':
+            m = re.compile(r'"([^"\\\n]|\\.)*"?').match(text, i)
+            i = m.end() if m else i + 1
+            continue
+        if text.startswith("//", i):
+            j = text.find("\n", i)
+            i = len(text) if j < 0 else j
+            continue
+        if text.startswith("/*", i):
+            j = text.find("*/", i + 2)
+            i = len(text) if j < 0 else j + 2
+            continue
+        if ch in _OPEN:
+            stack.append(i)
+        elif ch in ")]}" and stack:
+            stack.pop()
+        i += 1
+    return stack
+
+
 def _report(err: UnexpectedInput, source: SourceFile, diags: Diagnostics,
             chunk: _Chunk | None) -> None:
+    text = source.text
+    if chunk is not None:
+        first = re.match(r"\s*([A-Za-z_]\w*)", text[chunk.start:chunk.end])
+        if first and first.group(1) in _LAYER_WORDS and not isinstance(err, UnexpectedCharacters):
+            at = chunk.start + first.start(1)
+            word = first.group(1)
+            diags.error("E109", f"`{word}` only appears inside a pattern block",
+                        source.span(at, at + len(word)),
+                        hint=f"write it inside `pattern NODE {{ ... }}`, e.g. "
+                             f"`pattern body {{ {word} ... }}`")
+            return
     if isinstance(err, UnexpectedToken) and err.token.type == "$END" or isinstance(
             err, UnexpectedEOF):
         if chunk is not None and chunk.unclosed is not None:
@@ -532,15 +599,38 @@ def _report(err: UnexpectedInput, source: SourceFile, diags: Diagnostics,
         last = re.search(r"(\S+)\s*$", source.text[:end])
         start = last.start(1) if last else max(end - 1, 0)
         what = "end of file" if not source.text[stop:].strip() else "end of statement"
+        stmt = source.text[chunk.start:stop] if chunk is not None else source.text
+        hint = None
+        if m := re.search(r"\bclosed\s+([A-Za-z_]\w*)\s*$", stmt):
+            hint = f"write the closing mode in parentheses: `closed({m.group(1)})`"
+        elif m := re.search(r"\bstart\s+([A-Za-z_]\w*)\s*$", stmt):
+            hint = f"the yarn starts at an interface, e.g. `start {m.group(1)}.bottom`"
         diags.error("E101", f"unexpected {what}; expected {_describe_expected(expected)}",
-                    source.span(start, end))
+                    source.span(start, end), hint=hint)
         return
     if isinstance(err, UnexpectedToken):
         tok = err.token
         expected = set(err.accepts or err.expected)
         span = source.span(tok.start_pos, tok.end_pos if tok.end_pos is not None
                            else tok.start_pos + len(str(tok)))
-        if str(tok) == "}" and "RBRACE" not in expected:
+        if text.startswith("/*", tok.start_pos):
+            diags.error("E107", "unterminated comment", source.span(tok.start_pos,
+                                                                    tok.start_pos + 2),
+                        hint="close it with `*/`")
+            return
+        base = chunk.start if chunk is not None else 0
+        opened = _open_brackets(text, base, tok.start_pos)
+        if opened and text[opened[-1]] in "([":
+            opener = text[opened[-1]]
+            closer = _OPEN[opener]
+            closes_other = str(tok) in ")]}" and str(tok) != closer
+            later_line = source.position(opened[-1])[0] < source.position(tok.start_pos)[0]
+            if closes_other or (later_line and {"RPAR", "RSQB"} & expected):
+                diags.error("E102", f"unclosed `{opener}`",
+                            source.span(opened[-1], opened[-1] + 1),
+                            hint=f"add `{closer}` to close it")
+                return
+        if str(tok) == "}" and not opened:
             diags.error("E103", "unmatched `}`", span, hint="remove it, or open a block with `{`")
             return
         diags.error("E101", f"unexpected {_found(tok)}; expected {_describe_expected(expected)}",
@@ -550,9 +640,20 @@ def _report(err: UnexpectedInput, source: SourceFile, diags: Diagnostics,
     pos = err.pos_in_stream
     char = source.text[pos] if pos < len(source.text) else ""
     span = source.span(pos, pos + 1)
-    if char == '"':
+    if source.text.startswith('"""', pos) or source.text.startswith('"""', pos - 2):
+        at = pos if source.text.startswith('"""', pos) else pos - 2
+        diags.error("E108", "unterminated grid", source.span(at, at + 3),
+                    hint='close the grid with `"""`')
+    elif source.text.startswith("/*", pos):
+        diags.error("E107", "unterminated comment", source.span(pos, pos + 2),
+                    hint="close it with `*/`")
+    elif char == '"':
         diags.error("E105", "unterminated string", span,
                     hint='close it with `"` on the same line, or use """...""" for a grid')
+    elif char == ";":
+        diags.error("E100", "unexpected `;`", span,
+                    hint="knitc needs no `;`: separate statements and properties with "
+                         "newlines, spaces or `,`")
     elif char == "#" or char == "@":
         diags.error("E106", f"`{char}` must be followed by a name", span,
                     hint="write `#param` for a design parameter, `@prop` or `@node.prop` for "
