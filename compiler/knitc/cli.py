@@ -173,7 +173,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         # Options may come before the subcommand (`knitc -D x=1 check f.knit`).
         sub = next((i for i, a in enumerate(argv) if a in ("check", "fmt")
-                    and (i == 0 or argv[i - 1] not in ("-D", "-o", "--emit", "-W",
+                    and (i == 0 or argv[i - 1] not in ("-D", "-o", "--output", "--emit", "-W",
                                                        "--target"))), None)
         if sub is not None:
             rest = argv[:sub] + argv[sub + 1:]

@@ -92,4 +92,4 @@ def emit_json(result: Result, stage: str) -> str:
         obj = sk.to_json(result.skeleton)
     else:
         raise ValueError(stage)
-    return json.dumps(obj, indent=1, ensure_ascii=False) + "\n"
+    return json.dumps(obj, indent=1, ensure_ascii=True, allow_nan=False) + "\n"

@@ -210,7 +210,7 @@ class Evaluator:
             return b
         a, b = self.eval(e.left), self.eval(e.right)
         if e.op in ("==", "!="):
-            same = a == b
+            same = a == b and isinstance(a, bool) == isinstance(b, bool)
             return same if e.op == "==" else not same
         if isinstance(a, Profile) or isinstance(b, Profile):
             return self._profile_arith(e, a, b)
@@ -297,6 +297,10 @@ def arith(op: str, x: float, y: float, span: Span) -> int | float:
             case "^":
                 if abs(y) > 1024 or (abs(x) > 1 and abs(y) * math.log10(abs(x)) > 300):
                     raise EvalError("E305", "number too large", span)
+                if x < 0 and not float(y).is_integer():
+                    raise EvalError("E305", f"{show(x)} ^ {show(y)} is not a real number", span)
+                if x == 0 and y < 0:
+                    raise EvalError("E305", "division by zero", span)
                 return x ** y
             case "<":
                 return x < y

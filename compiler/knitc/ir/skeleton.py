@@ -379,6 +379,11 @@ def verify(skel: Skeleton, diags: Diagnostics) -> None:
                             f"bottom to {top.size} at its top", node.span,
                             hint="short rows keep the course size: make both neighbours the "
                                  "same size, and shape with a sheet's width profile instead")
+        if node.kind == "sheet" and node.tubular is None and paths[0].sides is None:
+            diags.error("E510", f"cannot tell whether `{node.name}` is flat or tubular",
+                        node.span, hint="connect it to a flat or tubular neighbour, or set "
+                                        "`type: flat` or `type: cylinder`")
+            continue
         for itf in paths:
             if itf.size is None and node.kind in ("joint", "split"):
                 diags.error("E505", f"cannot infer the size of `{itf.id}`", node.span,

@@ -13,6 +13,7 @@ so one mistake does not hide the next.
 from __future__ import annotations
 
 import difflib
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -576,6 +577,8 @@ class _Resolver:
 
     @staticmethod
     def _range(spec: sk.PropSpec, v: float, span: Span, what: str) -> None:
+        if not math.isfinite(v):
+            raise EvalError("E313", f"{what} must be a finite number, got {show(v)}", span)
         if spec.min is not None and v < spec.min:
             raise EvalError("E313", f"{what} must be at least {show(spec.min)}, got {show(v)}",
                             span)
@@ -691,6 +694,8 @@ class _Resolver:
                     stated[itf_id] = item.span
                     itf.state = item.state
                     itf.span = item.span
+                if item.state == "open":
+                    itf.closing = None
                 if item.state == "closed":
                     itf.closing = "collapse"
                     if item.closing is not None:

@@ -29,14 +29,17 @@ about the design, not the whitespace:
   on its own line one level deeper than the statement, cells left-aligned in columns padded
   to the widest cell (so the chart lines up however it was typed), empty rows kept, and the
   closing `\"\"\"` on its own line at the statement's indentation.
-* Comments are never lost, duplicated or reordered. Each comment belongs to the item,
-  property or statement after it (a leading comment, printed on its own lines at the same
-  indentation) or, when it starts on the line where the previous one ends, to that previous
-  one (a trailing comment, two spaces after it). Comments at the end of a block stay at its
-  end. A comment written somewhere without a line of its own (inside an expression, between
-  a keyword and its block, before an `else`) moves in front of the enclosing item,
-  property or statement: that is the nearest place where it still reads as a comment about
-  that code and where the next run of the formatter leaves it alone.
+* Comments are never lost or duplicated. Each comment belongs to the item, property or
+  statement after it (a leading comment, printed on its own lines at the same indentation)
+  or, when it starts on the line where the previous one ends, to that previous one (a
+  trailing comment, two spaces after it). Comment lines right below a trailing comment and
+  indented past the start of its item continue it, so they stay aligned under it. Comments
+  at the end of a block stay at its end. A comment written where it has no line of its own
+  (inside an expression, between a keyword and its block, before an `else`) moves in front
+  of the enclosing item, property or statement: the nearest place where it still reads as
+  a comment on that code, and one that the next run of the formatter leaves alone.
+* Output is a fixed point: formatting formatted text changes nothing, so `knitc fmt
+  --check` can be a CI gate.
 
 `format_expr` prints a single expression in the same style, for diagnostics and IR dumps.
 """
@@ -252,6 +255,7 @@ class _Comments:
         self.leading: dict[int, list[ast.Comment]] = defaultdict(list)
         self.moved: dict[int, list[ast.Comment]] = defaultdict(list)
         self.trailing: dict[int, list[ast.Comment]] = defaultdict(list)
+        self.continued: dict[int, list[ast.Comment]] = defaultdict(list)
         self.dangling: dict[int, list[ast.Comment]] = defaultdict(list)
         self.keys_with_comments: set[int] = set()
         comments = sorted(module.comments, key=lambda c: c.span.start)
@@ -270,6 +274,8 @@ class _Comments:
                 inside[i].append(c)
             elif i > 0 and c.span.line == children[i - 1].span.end_line:
                 self.trailing[id(children[i - 1])].append(c)
+            elif i > 0 and self._continues(children[i - 1], c):
+                self.continued[id(children[i - 1])].append(c)
             elif i < len(children):
                 self.leading[id(children[i])].append(c)
             else:
@@ -277,11 +283,16 @@ class _Comments:
         for index, group in inside.items():
             self._place_inside(children[index], group)
 
+    def _continues(self, node: ast.Node, c: ast.Comment) -> bool:
+        """Is `c` the next line of the trailing comment of `node`, indented past `node`?"""
+        above = self.continued.get(id(node)) or self.trailing.get(id(node))
+        return bool(above) and (
+            c.span.line == above[-1].span.end_line + 1 and c.span.column > node.span.column
+        )
+
     def _place_inside(self, node: ast.Node, comments: list[ast.Comment]) -> None:
-        bodies = _bodies(node)
-        for key, start, end, children in bodies:
-            mine = [c for c in comments if start <= c.span.start and c.span.end <= end]
-            self._place(key, children, mine)
+        for key, start, end, children in _bodies(node):
+            self._place(key, children, [c for c in comments if start <= c.span.start < end])
             comments = [c for c in comments if not start <= c.span.start < end]
         self.moved[id(node)].extend(comments)
 
@@ -323,8 +334,11 @@ class _Printer:
             last = child.span.end_line
             trailing = cm.trailing.get(id(child), ())
             if trailing:
+                column = len(lines[-1].rsplit("\n", 1)[-1]) + 2
                 lines[-1] += "".join("  " + c.text for c in trailing)
-                last = max(last, *(c.span.end_line for c in trailing))
+                continued = cm.continued.get(id(child), ())
+                lines += [" " * column + c.text for c in continued]
+                last = max(last, *(c.span.end_line for c in (*trailing, *continued)))
             unit(child.span.line, last, lines)
         for c in cm.dangling.get(key, ()):
             unit(c.span.line, c.span.end_line, comment(c))

@@ -320,6 +320,8 @@ class _ToAst(Transformer):
 
     def number(self, meta, ch):
         text = str(ch[0])
+        if len(text) > 300:
+            raise _SyntaxProblem("E110", "number literal too long", self._tok(ch[0]))
         value: int | float = int(text) if re.fullmatch(r"\d+", text) else float(text)
         return ast.Number(value, span=self._tok(ch[0]))
 

@@ -1,0 +1,360 @@
+"""The `knitc` command line, run in-process through `knitc.cli.main` (plus one subprocess run
+of the installed entry point)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+import knitc
+from knitc.cli import main
+
+
+def _has_module_fmt() -> bool:
+    try:
+        from knitc.syntax.fmt import format_module  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _has_layer_fmt() -> bool:
+    try:
+        from knitc.syntax.fmt import format_layer_stmt  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+needs_fmt = pytest.mark.skipif(not _has_module_fmt(),
+                               reason="knitc.syntax.fmt.format_module does not exist yet")
+needs_layer_fmt = pytest.mark.skipif(
+    not _has_layer_fmt(),
+    reason="knitc.syntax.fmt.format_layer_stmt does not exist yet; "
+           "knitc.ir.skeleton.to_json imports it, so --emit skeleton cannot run")
+
+GOOD = "param n = 2\ntube a { width: #n }\ntube b { width: #n }\na.top -> b.bottom\n"
+WARN = "tube a { width: 4 }\ntube b { width: 5 }\na.top -> b.bottom\n"   # W502
+BAD = "sheet a { length: 0 }\n"                                          # E313
+SYNTAX = "sheet a { length 3 }\n"                                       # E101
+
+
+@pytest.fixture
+def write(tmp_path):
+    def _write(text: str, name: str = "f.knit"):
+        p = tmp_path / name
+        p.write_text(text, encoding="utf-8")
+        return str(p)
+    return _write
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+# ---- version and help --------------------------------------------------------------------------
+
+def test_version(capsys):
+    code, out, err = run(capsys, "--version")
+    assert code == 0
+    assert out.strip() == f"knitc {knitc.__version__}"
+
+
+def test_help_mentions_examples(capsys):
+    code, out, _ = run(capsys, "--help")
+    assert code == 0
+    assert "examples:" in out
+    assert "knitc check" in out
+    assert "--emit" in out and "-D" in out
+
+
+def test_subcommand_help(capsys):
+    code, out, _ = run(capsys, "check", "--help")
+    assert code == 0 and "knitc check" in out
+    code, out, _ = run(capsys, "fmt", "--help")
+    assert code == 0 and "--check" in out
+
+
+@pytest.mark.parametrize("argv", [[], ["--emit", "nonsense", "x.knit"], ["-W", "all", "x.knit"],
+                                  ["check"], ["fmt"], ["--bogus", "x.knit"]])
+def test_usage_errors_exit_2(capsys, argv):
+    code, _, err = run(capsys, *argv)
+    assert code == 2
+    assert "usage" in err
+
+
+# ---- check -------------------------------------------------------------------------------------
+
+def test_check_clean_file(capsys, write):
+    code, out, err = run(capsys, "check", write(GOOD))
+    assert code == 0
+    assert out == "" and err == ""
+
+
+def test_check_error_file(capsys, write):
+    path = write(BAD)
+    code, out, err = run(capsys, "check", path)
+    assert code == 1
+    assert out == ""
+    assert f"{path}:1:19: error[E313]" in err
+    assert "knitc: 1 error" in err
+
+
+def test_check_syntax_error(capsys, write):
+    code, _, err = run(capsys, "check", write(SYNTAX))
+    assert code == 1
+    assert "error[E101]" in err
+
+
+def test_check_with_warning_passes(capsys, write):
+    code, _, err = run(capsys, "check", write(WARN))
+    assert code == 0
+    assert "warning[W502]" in err
+    assert "knitc: 1 warning" in err
+
+
+def test_werror_makes_warning_fail(capsys, write):
+    path = write(WARN)
+    code, _, err = run(capsys, "check", "-W", "error", path)
+    assert code == 1
+    assert "error[W502]" in err
+    code, _, _ = run(capsys, "-W", "error", "check", path)
+    assert code == 1
+    code, _, _ = run(capsys, "-W", "error", path)
+    assert code == 1
+
+
+def test_quiet_hides_warnings(capsys, write):
+    code, out, err = run(capsys, "check", "--quiet", write(WARN))
+    assert code == 0
+    assert out == "" and err == ""
+
+
+def test_quiet_still_shows_errors(capsys, write):
+    code, _, err = run(capsys, "check", "-q", write(BAD))
+    assert code == 1
+    assert "error[E313]" in err
+    assert "knitc: 1 error" not in err        # no summary in quiet mode
+
+
+def test_missing_input_file(capsys, tmp_path):
+    missing = str(tmp_path / "nope.knit")
+    for argv in (["check", missing], [missing], ["--emit", "ast", missing]):
+        code, out, err = run(capsys, *argv)
+        assert code == 1
+        assert "error[E001]" in err
+        assert "Traceback" not in err and "internal error" not in err
+        assert out == ""
+
+
+def test_directory_as_input(capsys, tmp_path):
+    code, _, err = run(capsys, "check", str(tmp_path))
+    assert code == 1
+    assert "error[E001]" in err and "Traceback" not in err
+
+
+def test_non_utf8_input(capsys, tmp_path):
+    p = tmp_path / "latin1.knit"
+    p.write_bytes(b"// caf\xe9\nsheet a {}\n")
+    code, _, err = run(capsys, "check", str(p))
+    assert code == 1
+    assert "error[E001]" in err and "Traceback" not in err
+
+
+def test_define_before_subcommand(capsys, write):
+    path = write("param n = 2\nsheet a { length: #n }\n")
+    assert run(capsys, "-D", "n=3", "check", path)[0] == 0
+    assert run(capsys, "check", "-D", "n=3", path)[0] == 0
+    code, _, err = run(capsys, "-D", "n=0", "check", path)
+    assert code == 1 and "E313" in err
+    code, _, err = run(capsys, "-D", "m=3", "check", path)
+    assert code == 1 and "E402" in err
+
+
+def test_define_value_named_check(capsys, write):
+    # `-D check=...` must not be mistaken for the subcommand.
+    path = write("param check = 2\nsheet a { length: #check }\n")
+    code, _, err = run(capsys, "-D", "check=0", "check", path)
+    assert code == 1 and "E313" in err
+
+
+def test_define_reaches_emitted_ast_stage(capsys, write):
+    path = write("param n = 2\n")
+    code, _, err = run(capsys, "-D", "n=(", "--emit", "ast", path)
+    assert code == 1 and "E408" in err
+
+
+# ---- --emit ------------------------------------------------------------------------------------
+
+def test_emit_ast_to_stdout(capsys, write):
+    code, out, err = run(capsys, "--emit", "ast", write(GOOD))
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["node"] == "Module"
+    assert [i["node"] for i in data["items"]] == ["ParamDecl", "NodeDecl", "NodeDecl", "Connect"]
+
+
+def test_emit_ast_with_output_file(capsys, write, tmp_path):
+    out_path = tmp_path / "out.json"
+    code, out, _ = run(capsys, "--emit", "ast", "-o", str(out_path), write(GOOD))
+    assert code == 0
+    assert out == ""
+    data = json.loads(out_path.read_text(encoding="utf-8"))
+    assert data["node"] == "Module"
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".knitc-")]
+
+
+def test_emit_ast_is_deterministic(capsys, write):
+    path = write(GOOD)
+    first = run(capsys, "--emit", "ast", path)[1]
+    second = run(capsys, "--emit", "ast", path)[1]
+    assert first == second and first
+
+
+@needs_layer_fmt
+def test_emit_skeleton_to_stdout(capsys, write):
+    code, out, err = run(capsys, "--emit", "skeleton", write(GOOD))
+    assert code == 0, err
+    data = json.loads(out)
+    assert {"machine", "params", "nodes", "interfaces", "connections", "starts",
+            "components", "layers", "definitions"} == set(data)
+    assert data["params"] == {"n": 2}
+
+
+@needs_layer_fmt
+def test_emit_skeleton_with_define_and_output(capsys, write, tmp_path):
+    out_path = tmp_path / "skel.json"
+    code, out, _ = run(capsys, "-D", "n=5", "--emit", "skeleton", "-o", str(out_path),
+                       write(GOOD))
+    assert code == 0 and out == ""
+    data = json.loads(out_path.read_text(encoding="utf-8"))
+    assert data["params"] == {"n": 5}
+    assert {i["id"]: i["size"] for i in data["interfaces"]}["a.top"] == 10
+
+
+@needs_layer_fmt
+def test_emit_skeleton_is_deterministic(capsys, write):
+    path = write(GOOD)
+    assert run(capsys, "--emit", "skeleton", path)[1] == run(capsys, "--emit", "skeleton",
+                                                             path)[1]
+
+
+@pytest.mark.parametrize("stage", ["ast", "skeleton"])
+def test_errors_leave_no_output_file(capsys, write, tmp_path, stage):
+    out_path = tmp_path / "out.json"
+    src = BAD if stage == "skeleton" else SYNTAX
+    code, out, err = run(capsys, "--emit", stage, "-o", str(out_path), write(src))
+    assert code == 1
+    assert out == ""
+    assert not out_path.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.knit"]
+
+
+@pytest.mark.parametrize("stage", ["ast", "skeleton"])
+def test_errors_leave_existing_output_untouched(capsys, write, tmp_path, stage):
+    out_path = tmp_path / "out.json"
+    out_path.write_text("previous contents\n", encoding="utf-8")
+    src = BAD if stage == "skeleton" else SYNTAX
+    code, _, _ = run(capsys, "--emit", stage, "-o", str(out_path), write(src))
+    assert code == 1
+    assert out_path.read_text(encoding="utf-8") == "previous contents\n"
+
+
+def test_werror_leaves_no_output_file(capsys, write, tmp_path):
+    out_path = tmp_path / "out.json"
+    code, _, _ = run(capsys, "-W", "error", "--emit", "ast", "-o", str(out_path), write(WARN))
+    # Warnings only appear after resolution; for --emit ast the run stops at the AST.
+    assert code == 0
+    out_path.unlink()
+    code, _, _ = run(capsys, "-W", "error", "--emit", "skeleton", "-o", str(out_path),
+                     write(WARN))
+    assert code == 1
+    assert not out_path.exists()
+
+
+def test_plain_compile_without_emit(capsys, write):
+    code, out, err = run(capsys, write(GOOD))
+    assert code == 0 and out == "" and err == ""
+
+
+@pytest.mark.parametrize("argv", [["--emit", "trace"], ["-o", "x.k"], ["--target", "dat"]])
+def test_not_implemented_stages_fail_cleanly(capsys, write, tmp_path, argv):
+    argv = [a if a != "x.k" else str(tmp_path / "x.k") for a in argv]
+    code, out, err = run(capsys, *argv, write(GOOD))
+    assert code == 1
+    assert "not implemented yet" in err
+    assert "Traceback" not in err
+    assert not (tmp_path / "x.k").exists()
+
+
+# ---- fmt ---------------------------------------------------------------------------------------
+
+@needs_fmt
+def test_fmt_check_canonical_and_not(capsys, write):
+    from knitc.syntax.fmt import format_module
+    from knitc.syntax.parser import parse
+
+    messy = "param   n=2\n\n\n\ntube a{width:#n length : 3}\n"
+    canonical = format_module(parse(messy, "f.knit"))
+    assert canonical != messy
+    bad = write(messy, "messy.knit")
+    good = write(canonical, "canon.knit")
+    code, out, err = run(capsys, "fmt", "--check", bad)
+    assert code == 1
+    assert out == ""
+    assert "messy.knit" in err
+    code, out, err = run(capsys, "fmt", "--check", good)
+    assert code == 0 and out == "" and err == ""
+    code, _, _ = run(capsys, "fmt", "--check", good, bad)
+    assert code == 1
+
+
+@needs_fmt
+def test_fmt_prints_and_rewrites(capsys, write, tmp_path):
+    messy = "param   n=2\ntube a{width:#n}\n"
+    path = write(messy, "m.knit")
+    code, out, _ = run(capsys, "fmt", path)
+    assert code == 0
+    assert out and out != messy
+    assert (tmp_path / "m.knit").read_text(encoding="utf-8") == messy   # unchanged
+    code, _, _ = run(capsys, "fmt", "-i", path)
+    assert code == 0
+    assert (tmp_path / "m.knit").read_text(encoding="utf-8") == out
+    assert run(capsys, "fmt", "--check", path)[0] == 0
+
+
+@needs_fmt
+def test_fmt_on_syntax_error_and_missing_file(capsys, write, tmp_path):
+    path = write(SYNTAX)
+    code, _, err = run(capsys, "fmt", "-i", path)
+    assert code == 1 and "E101" in err
+    assert (tmp_path / "f.knit").read_text(encoding="utf-8") == SYNTAX
+    code, _, err = run(capsys, "fmt", "--check", str(tmp_path / "nope.knit"))
+    assert code == 1 and "E001" in err and "Traceback" not in err
+
+
+def test_fmt_check_and_in_place_are_exclusive(capsys, write):
+    code, _, err = run(capsys, "fmt", "--check", "-i", write(GOOD))
+    assert code == 2
+
+
+# ---- the installed entry point -----------------------------------------------------------------
+
+def test_module_entry_point_runs():
+    proc = subprocess.run([sys.executable, "-m", "knitc", "--version"], capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == f"knitc {knitc.__version__}"
+
+
+def test_output_file_named_like_a_subcommand(capsys, write, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    path = write(GOOD)
+    code, _, _ = run(capsys, "--emit", "ast", "--output", "check", path)
+    assert code == 0
+    assert (tmp_path / "check").is_file()
