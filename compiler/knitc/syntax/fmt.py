@@ -41,7 +41,8 @@ about the design, not the whitespace:
 * Output is a fixed point: formatting formatted text changes nothing, so `knitc fmt
   --check` can be a CI gate.
 
-`format_expr` prints a single expression in the same style, for diagnostics and IR dumps.
+`format_expr` and `format_layer_stmt` print a single expression or statement in the same
+style, for diagnostics and IR dumps.
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ from collections.abc import Callable, Sequence
 
 from knitc.syntax import ast
 
-__all__ = ["INDENT", "WIDTH", "format_expr", "format_module"]
+__all__ = ["INDENT", "WIDTH", "format_expr", "format_layer_stmt", "format_module"]
 
 INDENT = "  "
 WIDTH = 100
@@ -480,5 +481,16 @@ class _Printer:
 
 
 def format_module(module: ast.Module) -> str:
-    """The canonical source text of `module`, comments included; ends with one newline."""
+    """The canonical source text of `module`, comments included; ends with one newline.
+
+    Any tree the parser builds round-trips. A hand-built tree can have no source form:
+    newlines do not end statements, so `x = a` followed by the statement `-b` prints as text
+    that parses as `x = a - b` (tests/strategies.py avoids generating such trees).
+    """
     return _Printer(module).format()
+
+
+def format_layer_stmt(stmt: ast.Node, indent: str = "") -> str:
+    """One statement of a pattern layer (or of a shaper or action) in canonical form, at
+    `indent`, without comments; only grids and nested blocks make it span lines."""
+    return "\n".join(_Printer(ast.Module(())).stmt(stmt, indent))

@@ -60,9 +60,27 @@ def _can_shift(parse_table, state_stack: list[int], token_type: str) -> bool:
         stack.append(goto)
 
 
-# No keyword is ever followed by `.` (a number such as `.5` aside), so a keyword-like word
-# followed by one is a name: the node in `start.top -> cuff.bottom`.
-_DOT_NEXT = re.compile(r"(?:\s|//[^\n]*|/\*(?:.|\n)*?\*/)*\.(?!\d)")
+def _dot_next(text: str, pos: int) -> bool:
+    """Is the next token after `pos` (past blanks and comments) a `.`, not a number `.5`?
+
+    No keyword is ever followed by one, so a keyword-like word that is must be a name: the
+    node in `start.top -> cuff.bottom`.
+    """
+    n = len(text)
+    while pos < n:
+        if text[pos].isspace():
+            pos += 1
+        elif text.startswith("//", pos):
+            newline = text.find("\n", pos)
+            pos = n if newline < 0 else newline
+        elif text.startswith("/*", pos):
+            close = text.find("*/", pos + 2)
+            if close < 0:
+                return False
+            pos = close + 2
+        else:
+            break
+    return text.startswith(".", pos) and not text[pos + 1 : pos + 2].isdigit()
 
 
 class _ContextualKeywords:
@@ -76,7 +94,7 @@ class _ContextualKeywords:
         for tok in self.inner.lex(lexer_state, parser_state):
             if tok.type in _KEYWORD_TYPES and (
                     not _can_shift(table, parser_state.state_stack, tok.type)
-                    or _DOT_NEXT.match(_text(lexer_state), tok.end_pos)):
+                    or _dot_next(_text(lexer_state), tok.end_pos)):
                 if _can_shift(table, parser_state.state_stack, "NAME"):
                     tok = Token.new_borrow_pos("NAME", tok.value, tok)
             yield tok
@@ -670,8 +688,11 @@ def parse_source(source: SourceFile, diags: Diagnostics) -> ast.Module | None:
     comments: list[Token] = []
     try:
         tree = _parse(source.text, comments)
-    except UnexpectedInput:
+    except UnexpectedInput as err:
+        before = diags.error_count
         _recover(source, diags)
+        if diags.error_count == before:  # every statement parses alone: report the whole
+            _report(err, source, diags, None)
         return None
     try:
         module = _ToAst(source).transform(tree)
