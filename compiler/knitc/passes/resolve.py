@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -154,8 +155,8 @@ class _Loader:
             path = (base / imp.path).resolve()
             if not path.is_file():
                 self.diags.error("E203", f"cannot find `{imp.path}`", imp.span,
-                                 hint=f"looked for {path}; imports are relative to the "
-                                      "importing file")
+                                 hint=f"looked for {os.path.normpath(base / imp.path)}; "
+                                      "imports are relative to the importing file")
                 defs.failed_import(imp)
                 return
             key, display = str(path), str(base / imp.path) if not importer.startswith("<") \
