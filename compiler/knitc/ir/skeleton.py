@@ -294,6 +294,12 @@ def infer_sizes(skel: Skeleton) -> None:
                 if all(b.size is not None for b in branches):
                     set_(base, sum(b.size for b in branches), 2 if node.props["folded"]
                          else None)
+                unknown = [b for b in branches if b.size is None]
+                if base.size is not None and len(unknown) == 1 and \
+                        unknown[0].state != "connected":
+                    rest = base.size - sum(b.size for b in branches if b.size is not None)
+                    if rest > 0:  # an open branch takes what the others leave (original)
+                        set_(unknown[0], rest, None)
                 if base.sides is not None and node.props["folded"]:
                     for b in branches:
                         set_(b, None, base.sides)
@@ -343,12 +349,25 @@ def verify(skel: Skeleton, diags: Diagnostics) -> None:
     infer_sizes(skel)
     for c in valid:
         a, b = skel.interfaces[c.a], skel.interfaces[c.b]
-        if a.size is None or b.size is None or a.size == b.size:
+        if a.size is None or b.size is None:
             continue
         if c.a.node in skel.tainted or c.b.node in skel.tainted:
             continue
-        # Gauge changes the needle spacing, not the stitch count, so sizes compare the same
-        # way across a half/full gauge boundary.
+        # Across a gauge change the courses are bound by the needles they span (the
+        # original's rule): 50 half-gauge stitches meet 100 full-gauge ones, spread 1:2.
+        ga = 2 if skel.nodes[c.a.node].props.get("gauge") == "half" else 1
+        gb = 2 if skel.nodes[c.b.node].props.get("gauge") == "half" else 1
+        if ga != gb:
+            # Equal stitch counts are bound stitch for stitch (the needles are repacked);
+            # equal needle spans are spread, as the original did.
+            if a.size != b.size and a.size * ga != b.size * gb:
+                diags.warning("W502", f"width mismatch across a gauge change: `{a.id}` spans "
+                              f"{a.size * ga} needles, `{b.id}` spans {b.size * gb}", c.span,
+                              hint="across a gauge change, a half-gauge side needs half the "
+                                   "stitches of the full-gauge side")
+            continue
+        if a.size == b.size:
+            continue
         big, small = (a, b) if a.size > b.size else (b, a)
         if big.size == 2 * small.size and big.sides == 2:
             diags.warning("W501", f"`{big.id}` has {big.size} stitches and `{small.id}` has "
