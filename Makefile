@@ -45,9 +45,9 @@ install: venv
 
 run: install
 	$(BIN)/knitc check $(EXAMPLE)
-	$(BIN)/knitc --emit skeleton $(EXAMPLE) > /dev/null
-	@echo "make run: front end only (the back end is in progress): '$(EXAMPLE)' parses," \
-	  "resolves and checks clean, and its skeleton IR dumps (knitc --emit skeleton $(EXAMPLE))."
+	$(BIN)/knitc --emit trace -o $(EXAMPLE:.knit=.trace.json) $(EXAMPLE)
+	@echo "make run: '$(EXAMPLE)' checks clean and is lowered to its stitch graph and traced" \
+	  "yarn ($(EXAMPLE:.knit=.trace.json)); Knitout generation is not implemented yet."
 
 test: venv
 	@rm -rf build

@@ -109,15 +109,15 @@ def write_atomic(path: str, data: str | bytes) -> None:
 def _cmd_compile(args: argparse.Namespace) -> int:
     werror = "error" in args.warn
     stage = args.emit or "skeleton"
-    result = compile_file(args.file, defines=args.defines,
-                          until="ast" if stage == "ast" else "skeleton", werror=werror)
+    until = stage if stage in STAGES else "trace"
+    result = compile_file(args.file, defines=args.defines, until=until, werror=werror)
     _report(result.diagnostics, args.quiet)
     if not result.ok:
         return 1
     if args.emit in PLANNED_STAGES or (args.emit is None and (args.output or args.target)):
         what = f"--emit {args.emit}" if args.emit else "machine code generation"
         sys.stderr.write(f"knitc: error: {what} is not implemented yet: this version stops at "
-                         "the skeleton IR (try --emit skeleton or `knitc check`)\n")
+                         "the traced yarn (try --emit trace or `knitc check`)\n")
         return 1
     if args.emit is None:
         return 0
@@ -130,7 +130,8 @@ def _cmd_compile(args: argparse.Namespace) -> int:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    result = compile_file(args.file, defines=args.defines, werror="error" in args.warn)
+    result = compile_file(args.file, defines=args.defines, werror="error" in args.warn,
+                          until="trace")
     _report(result.diagnostics, args.quiet)
     return 0 if result.ok else 1
 

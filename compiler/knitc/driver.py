@@ -1,6 +1,7 @@
 """The pipeline, readable in one place.
 
-    source ──parse──▶ AST ──resolve + verify──▶ Skeleton ──(later: shape, trace, ...)
+    source ──parse──▶ AST ──resolve + verify──▶ Skeleton ──shape──▶ StitchGraph ──trace──▶ Trace
+    (later: slices, schedule, machine program, Knitout / DAT)
 
 Each stage is a pure function of the previous IR plus a `Diagnostics` collection; the driver
 stops after the first stage that reported errors, because later stages would only repeat
@@ -16,15 +17,19 @@ from typing import Any
 
 from knitc.diagnostics import Diagnostics
 from knitc.ir import skeleton as sk
+from knitc.ir import stitch_graph as sg
+from knitc.ir import trace as tr
 from knitc.passes.resolve import parse_define, resolve
+from knitc.passes.shape import build_stitch_graph
+from knitc.passes.trace import trace_courses
 from knitc.source import SourceFile
 from knitc.syntax import ast
 from knitc.syntax.parser import parse_source
 
-STAGES = ("ast", "skeleton")
+STAGES = ("ast", "skeleton", "stitch-graph", "trace")
 """IRs that `--emit` can print today, in pipeline order."""
 
-PLANNED_STAGES = ("stitch-graph", "trace", "slices", "schedule", "machine")
+PLANNED_STAGES = ("slices", "schedule", "machine")
 
 
 @dataclass
@@ -32,6 +37,8 @@ class Result:
     diagnostics: Diagnostics
     module: ast.Module | None = None
     skeleton: sk.Skeleton | None = None
+    graph: sg.StitchGraph | None = None
+    trace: tr.Trace | None = None
     stage_reached: str = "none"
     defines: dict[str, ast.Node] = field(default_factory=dict)
 
@@ -60,6 +67,19 @@ def compile_source(text: str, path: str, *, defines: list[str] = (), until: str 
     skel = resolve(module, path, diags, parsed_defines)
     result.skeleton = skel
     result.stage_reached = "skeleton"
+    if until == "skeleton" or skel is None or diags.has_errors:
+        return _finish(result, werror)
+    graph = build_stitch_graph(skel, diags)
+    if graph is None:
+        return _finish(result, werror)
+    result.graph, result.stage_reached = graph, "stitch-graph"
+    if until == "stitch-graph":
+        return _finish(result, werror)
+    trace = trace_courses(graph)
+    problems = tr.verify(graph, trace)
+    if problems:
+        raise AssertionError("tracing produced an invalid trace: " + "; ".join(problems))
+    result.trace, result.stage_reached = trace, "trace"
     return _finish(result, werror)
 
 
@@ -90,6 +110,12 @@ def emit_json(result: Result, stage: str) -> str:
     elif stage == "skeleton":
         assert result.skeleton is not None
         obj = sk.to_json(result.skeleton)
+    elif stage == "stitch-graph":
+        assert result.graph is not None
+        obj = sg.to_json(result.graph)
+    elif stage == "trace":
+        assert result.graph is not None and result.trace is not None
+        obj = tr.to_json(result.graph, result.trace)
     else:
         raise ValueError(stage)
     return json.dumps(obj, indent=1, ensure_ascii=True, allow_nan=False) + "\n"

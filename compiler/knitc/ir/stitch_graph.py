@@ -1,0 +1,183 @@
+"""The stitch graph IR: every stitch, its course and wale connections (thesis ch. 3.3.2).
+
+Stored as parallel numpy arrays, not Python objects, so a garment of a million stitches is a
+few tens of megabytes and passes can be vectorised. Stitch ids are dense (0..N-1) and every
+course owns a contiguous id range, in knitting-schedule order, so "earlier course" means
+"knitted earlier" and a course is a slice.
+
+Conventions:
+- course order within a course is the yarn order: flat courses run left to right on their
+  bed; tubular courses run left to right on the front bed, then right to left on the back
+  (counter-clockwise seen from above), and are cyclic;
+- `wale_prev` / `wale_next` hold up to two ids each (-1 = none): an increase is one stitch
+  with two next wales, a decrease one stitch with two previous wales;
+- `instr` holds the pattern instruction (index into `INSTRUCTIONS`, 0 = K), `action` a stitch
+  action id (-1 = the instruction's own lowering), `yarn` a yarn mask (bit k = yarn k).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from knitc.source import Span
+
+INSTRUCTIONS = ("K", "P", "T", "M", "FR1", "FR2", "FL1", "FL2", "BR1", "BR2", "BL1", "BL2",
+                "XR+", "XR-", "XL+", "XL-", "S")
+"""The 17 pattern instructions of thesis ch. 4.2, in the order of the original alphabet."""
+
+COURSE_KINDS = ("regular", "short_row", "continuity", "interface")
+
+NONE = -1
+
+
+@dataclass
+class StitchGraph:
+    """Stitches as arrays; courses as contiguous id ranges. See the module docstring."""
+
+    node_names: list[str]
+    spans: list[Span]
+    # per stitch
+    node: np.ndarray  # int32: index into node_names
+    course: np.ndarray  # int32: course id
+    side: np.ndarray  # int8: 0 front, 1 back
+    needle: np.ndarray  # int32: needle index hint within the node's layout
+    cprev: np.ndarray  # int32: previous stitch along the yarn order of the course
+    cnext: np.ndarray  # int32: next stitch along the course
+    wale_prev: np.ndarray  # int32 (N, 2)
+    wale_next: np.ndarray  # int32 (N, 2)
+    instr: np.ndarray  # uint8
+    action: np.ndarray  # int16
+    yarn: np.ndarray  # uint16
+    span: np.ndarray  # int32: index into spans (the declaration that made the stitch)
+    # per course
+    course_start: np.ndarray  # int32
+    course_len: np.ndarray  # int32
+    course_node: np.ndarray  # int32
+    course_circular: np.ndarray  # bool
+    course_kind: np.ndarray  # int8: index into COURSE_KINDS
+    course_gauge: np.ndarray  # int8: 1 full, 2 half
+    course_names: dict[int, tuple[str, ...]] = field(default_factory=dict)
+    """Interface names of a course, e.g. ("cuff.bottom",) or ("palm.top", "hand.base")."""
+
+    @property
+    def n_stitches(self) -> int:
+        return int(self.node.shape[0])
+
+    @property
+    def n_courses(self) -> int:
+        return int(self.course_start.shape[0])
+
+    def course_ids(self, c: int) -> np.ndarray:
+        s = int(self.course_start[c])
+        return np.arange(s, s + int(self.course_len[c]), dtype=np.int32)
+
+    def stats(self) -> dict[str, Any]:
+        counts = np.bincount(self.instr, minlength=len(INSTRUCTIONS))
+        return {
+            "stitches": self.n_stitches,
+            "courses": self.n_courses,
+            "nodes": len(self.node_names),
+            "instructions": {INSTRUCTIONS[i]: int(c) for i, c in enumerate(counts) if c},
+        }
+
+
+def empty_pair(n: int) -> np.ndarray:
+    return np.full((n, 2), NONE, dtype=np.int32)
+
+
+# ---- verifier ---------------------------------------------------------------------------------
+
+def verify(g: StitchGraph) -> list[str]:
+    """Structural invariants; returns human-readable violations (empty = valid).
+
+    These are compiler invariants, not designer mistakes: a violation is an internal error.
+    """
+    problems: list[str] = []
+    n = g.n_stitches
+    ids = np.arange(n, dtype=np.int32)
+
+    # Courses tile the id space contiguously and agree with the per-stitch course array.
+    ends = g.course_start + g.course_len
+    if g.n_courses and (g.course_start[0] != 0 or ends[-1] != n
+                        or np.any(g.course_start[1:] != ends[:-1])):
+        problems.append("courses do not tile the stitch ids contiguously")
+    if np.any(np.repeat(np.arange(g.n_courses, dtype=np.int32), g.course_len) != g.course):
+        problems.append("per-stitch course ids disagree with the course table")
+
+    # Course neighbours: prev/next are mutual, stay within the course, and form a path or cycle.
+    for name, arr, other in (("cnext", g.cnext, g.cprev), ("cprev", g.cprev, g.cnext)):
+        has = arr >= 0
+        if np.any(arr[has] >= n):
+            problems.append(f"{name} points outside the graph")
+            continue
+        if np.any(other[arr[has]] != ids[has]):
+            bad = int(ids[has][other[arr[has]] != ids[has]][0])
+            problems.append(f"course links of stitch {bad} are not mutual")
+        if np.any(g.course[arr[has]] != g.course[has]):
+            problems.append(f"{name} links stitches of different courses")
+
+    # Wales: mutual, forward in knitting time, at most two each way, 1->2 and 2->1 only.
+    for name, fwd, back in (("wale_next", g.wale_next, g.wale_prev),
+                            ("wale_prev", g.wale_prev, g.wale_next)):
+        src, slot = np.nonzero(fwd >= 0)
+        dst = fwd[src, slot]
+        if np.any(dst >= n):
+            problems.append(f"{name} points outside the graph")
+            continue
+        mutual = (back[dst, 0] == src) | (back[dst, 1] == src)
+        if not np.all(mutual):
+            problems.append(f"{name} of stitch {int(src[~mutual][0])} is not mutual")
+        if name == "wale_next" and np.any(g.course[dst] <= g.course[src]):
+            bad = int(src[g.course[dst] <= g.course[src]][0])
+            problems.append(f"wale of stitch {bad} does not go forward in knitting time")
+    n_next = (g.wale_next >= 0).sum(axis=1)
+    n_prev = (g.wale_prev >= 0).sum(axis=1)
+    inc = np.nonzero(n_next == 2)[0]
+    if inc.size and np.any(n_prev[g.wale_next[inc].ravel()] != 1):
+        problems.append("an increase child has more than one previous wale (2->2 link)")
+    dec = np.nonzero(n_prev == 2)[0]
+    if dec.size and np.any(n_next[g.wale_prev[dec].ravel()] != 1):
+        problems.append("a decrease parent has more than one next wale (2->2 link)")
+    for arr in (g.wale_next, g.wale_prev):
+        dup = (arr[:, 0] >= 0) & (arr[:, 0] == arr[:, 1])
+        if np.any(dup):
+            problems.append(f"stitch {int(ids[dup][0])} lists the same wale twice")
+    return problems
+
+
+def check(g: StitchGraph) -> None:
+    """Raise AssertionError on invariant violations (used between passes)."""
+    problems = verify(g)
+    if problems:
+        raise AssertionError("invalid stitch graph: " + "; ".join(problems[:5]))
+
+
+# ---- stable JSON --------------------------------------------------------------------------
+
+def to_json(g: StitchGraph, *, stitches: bool = True) -> dict[str, Any]:
+    """The dump of `knitc --emit stitch-graph`: stats first, then courses and stitches."""
+    out: dict[str, Any] = {"stats": g.stats(), "nodes": list(g.node_names)}
+    out["courses"] = [
+        {"id": c, "node": g.node_names[int(g.course_node[c])],
+         "start": int(g.course_start[c]), "len": int(g.course_len[c]),
+         "circular": bool(g.course_circular[c]),
+         "kind": COURSE_KINDS[int(g.course_kind[c])], "gauge": int(g.course_gauge[c]),
+         **({"names": list(g.course_names[c])} if c in g.course_names else {})}
+        for c in range(g.n_courses)
+    ]
+    if stitches:
+        def pairs(a: np.ndarray) -> list[list[int]]:
+            return [[int(x) for x in row if x >= 0] for row in a]
+        wn, wp = pairs(g.wale_next), pairs(g.wale_prev)
+        out["stitches"] = [
+            {"id": i, "course": int(g.course[i]), "side": int(g.side[i]),
+             "needle": int(g.needle[i]), "prev": int(g.cprev[i]), "next": int(g.cnext[i]),
+             "wale_prev": wp[i], "wale_next": wn[i], "instr": INSTRUCTIONS[int(g.instr[i])],
+             "action": int(g.action[i]), "yarn": int(g.yarn[i]),
+             "span": g.spans[int(g.span[i])].to_json()}
+            for i in range(g.n_stitches)
+        ]
+    return out

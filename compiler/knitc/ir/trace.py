@@ -1,0 +1,117 @@
+"""The traced-yarn IR: the order in which yarns visit stitches (thesis ch. 6.6).
+
+One row per visit, as parallel numpy arrays: the stitch, the yarn (a logical yarn; the
+scheduler assigns carriers), the direction the carriage moves on that stitch (+1 towards
+higher needles, -1 towards lower), and flags. A trace made by double tracing visits each
+stitch twice (`passes == 2`); single-pass tracing visits each stitch once.
+
+Flags:
+- START / END: first and last visit of a yarn;
+- TUCK_PREV: tuck before this visit (the yarn turned: short-row ends, ch. 5.4 and 6.6);
+- JUMP: the previous visit is neither a course nor a wale neighbour, but an adjacent needle
+  of the same node (a ring closing across beds, or a continuity course meeting its next
+  course); anything farther starts a new yarn instead.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from knitc.ir.stitch_graph import StitchGraph
+
+START, END, TUCK_PREV, JUMP = 1, 2, 4, 8
+FLAG_NAMES = {START: "start", END: "end", TUCK_PREV: "tuck", JUMP: "jump"}
+
+
+@dataclass
+class Trace:
+    stitch: np.ndarray  # int32
+    yarn: np.ndarray  # int16
+    dir: np.ndarray  # int8
+    flags: np.ndarray  # uint8
+    passes: int = 1
+    method: str = "courses"
+
+    @property
+    def n_visits(self) -> int:
+        return int(self.stitch.shape[0])
+
+    @property
+    def n_yarns(self) -> int:
+        return int(self.yarn.max()) + 1 if self.n_visits else 0
+
+    def stats(self) -> dict[str, Any]:
+        return {"visits": self.n_visits, "yarns": self.n_yarns,
+                "tucks": int(np.count_nonzero(self.flags & TUCK_PREV)),
+                "jumps": int(np.count_nonzero(self.flags & JUMP)),
+                "passes": self.passes, "method": self.method}
+
+
+def _neighbours(g: StitchGraph, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Whether visits a[i] -> b[i] move to a course or wale neighbour (or stay)."""
+    same = a == b
+    course = (g.cnext[a] == b) | (g.cprev[a] == b)
+    wale = (g.wale_next[a, 0] == b) | (g.wale_next[a, 1] == b) | \
+        (g.wale_prev[a, 0] == b) | (g.wale_prev[a, 1] == b)
+    return same | course | wale
+
+
+def verify(g: StitchGraph, t: Trace) -> list[str]:
+    """Invariants of a trace over its stitch graph; empty = valid."""
+    problems: list[str] = []
+    n = g.n_stitches
+    counts = np.bincount(t.stitch, minlength=n) if t.n_visits else np.zeros(n, np.int64)
+    if np.any(counts != t.passes):
+        bad = int(np.nonzero(counts != t.passes)[0][0])
+        problems.append(f"stitch {bad} is visited {int(counts[bad])} times, not {t.passes}")
+        return problems
+    # the last visit of every stitch comes after the last visits of its previous wales
+    last = np.zeros(n, np.int64)
+    last[t.stitch] = np.arange(t.n_visits)
+    first = np.full(n, t.n_visits, np.int64)
+    np.minimum.at(first, t.stitch, np.arange(t.n_visits))
+    for k in (0, 1):
+        p = g.wale_prev[:, k]
+        has = p >= 0
+        early = first[has] < last[p[has]]
+        if np.any(early):
+            s = int(np.nonzero(has)[0][early][0])
+            problems.append(f"stitch {s} is knitted before its previous wale {int(p[s])} "
+                            "is finished")
+            break
+    # consecutive visits of one yarn: neighbours, or a flagged jump
+    if t.n_visits > 1:
+        order = np.lexsort((np.arange(t.n_visits), t.yarn))  # each yarn's visits in order
+        st, fl, yn = t.stitch[order], t.flags[order], t.yarn[order]
+        a, b = st[:-1], st[1:]
+        same_yarn = yn[:-1] == yn[1:]
+        ok = _neighbours(g, a, b) | ((fl[1:] & JUMP) != 0)
+        bad = same_yarn & ~ok
+        if np.any(bad):
+            i = int(np.nonzero(bad)[0][0])
+            problems.append(f"yarn {int(yn[i])} jumps from stitch {int(a[i])} to {int(b[i])} "
+                            "without a justification")
+    starts = np.count_nonzero(t.flags & START)
+    if starts != t.n_yarns:
+        problems.append(f"{starts} yarn starts for {t.n_yarns} yarns")
+    return problems
+
+
+def to_json(g: StitchGraph, t: Trace) -> dict[str, Any]:
+    """The dump of `knitc --emit trace`: stats first, then yarns and visits."""
+    visits = []
+    for i in range(t.n_visits):
+        f = int(t.flags[i])
+        visits.append({"stitch": int(t.stitch[i]), "yarn": int(t.yarn[i]),
+                       "dir": int(t.dir[i]),
+                       "flags": [name for bit, name in FLAG_NAMES.items() if f & bit]})
+    yarns = []
+    for y in range(t.n_yarns):
+        idx = np.nonzero(t.yarn == y)[0]
+        yarns.append({"yarn": y, "visits": int(idx.size), "first": int(t.stitch[idx[0]]),
+                      "last": int(t.stitch[idx[-1]]),
+                      "nodes": sorted({g.node_names[int(g.node[s])] for s in t.stitch[idx]})})
+    return {"stats": t.stats(), "yarns": yarns, "visits": visits}
