@@ -270,7 +270,16 @@ def _sheet(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     # course, and also decreasing there would stack up to four loops on one needle.
     if itf_in.state == "closed" and tubular and length > 1:
         widths[0] = widths[1]
-    if itf_out.state == "closed" and tubular and length > 1:
+    # A tube whose exit meets a course of half its size (same gauge) is closed, then merged
+    # (the original's 2:1 rule).
+    partner_out = state.partner.get(ItfId(node.name, exit_))
+    close_out = itf_out.state == "closed"
+    if partner_out is not None and tubular and itf_out.size:
+        other = skel.interfaces[partner_out]
+        same_gauge = skel.nodes[partner_out.node].props["gauge"] == node.props["gauge"]
+        close_out = close_out or (same_gauge and other.size is not None
+                                  and 2 * other.size == itf_out.size)
+    if close_out and tubular and length > 1:
         widths[-1] = widths[-2]
     max_w = max(widths)
     alignment = str(node.props.get("alignment", "center"))
@@ -286,9 +295,12 @@ def _sheet(state: _State, node: PrimNode, visit: NodeVisit) -> None:
             side, needle = ring(w, tubular, off)
             if not tubular and direction < 0:
                 side, needle = side[::-1], needle[::-1]
-            closed = (c == 0 and itf_in.state == "closed") or \
-                (c == length - 1 and itf_out.state == "closed")
-            if closed and tubular:
+            at_in, at_out = c == 0, c == length - 1
+            closed = (at_in and itf_in.state == "closed") or (at_out and close_out)
+            closing = (itf_in if at_in and itf_in.state == "closed" else itf_out).closing
+            if closed and tubular and closing in ("zigzag", "zigzagreturn"):
+                cur = _zigzag(state, idx, w, off, gauge, closing == "zigzagreturn")
+            elif closed and tubular:
                 cur = _collapsed(state, idx, w, off, gauge, first=c == 0)
             else:
                 kind = "interface" if c in (0, length - 1) else "regular"
@@ -324,10 +336,23 @@ def _collapsed(state: _State, idx: int, w: int, off: int, gauge: int, first: boo
     return course
 
 
+def _zigzag(state: _State, idx: int, w: int, off: int, gauge: int, ret: bool) -> Course:
+    """A closed tube end knitted as one flat course alternating front and back needles
+    (`closed(zigzag)`), or the same read back (`closed(zigzagreturn)`): no loops merge, the
+    end is closed by the yarn crossing between the beds."""
+    k = np.arange(w, dtype=np.int32) + off
+    side = np.tile(np.array([0, 1], np.int8), w)
+    needle = np.repeat(k, 2)
+    if ret:
+        side, needle = side[::-1], needle[::-1]
+    return state.acc.course(idx, side, needle, False, "interface", gauge)
+
+
 def _link(state: _State, node: PrimNode, a: Course, b: Course) -> None:
     """Wales between consecutive courses of one sheet or tube."""
     acc = state.acc
-    if getattr(b, "collapsed", False) or getattr(a, "collapsed", False):
+    if (getattr(b, "collapsed", False) and a.circular) or \
+            (getattr(a, "collapsed", False) and b.circular):
         full, flat = (a, b) if getattr(b, "collapsed", False) else (b, a)
         for bed in (FRONT, BACK):
             half = full.half(bed)
