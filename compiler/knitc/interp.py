@@ -215,12 +215,11 @@ class Interpreter(Evaluator):
             raise EvalError("E303", f"`for` needs a list or a range, got {type_name(items)}",
                             s.iter.span, "loop over `range(n)` or a list `[a, b, c]`")
         n = len(items)
-        if n > self.budget - self._steps:
-            self._loops.append((s, n))
-            self._out_of_steps(s)
         self._loops.append((s, n))
         saved = self._scope
         try:
+            if n > self.budget - self._steps:  # each iteration costs a step: fail now
+                self._out_of_steps(s)
             for x in items:
                 self._tick(s)
                 self._scope = _Scope(saved, {s.var.name: x})

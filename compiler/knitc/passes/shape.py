@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from knitc.diagnostics import Diagnostics
+from knitc.diagnostics import Diagnostics, Note
 from knitc.evaluate import EvalError, Profile, round_half_up
 from knitc.ir import stitch_graph as sg
 from knitc.ir.skeleton import ItfId, PrimNode, Skeleton
@@ -186,9 +186,16 @@ class _State:
     diags: Diagnostics
     partner: dict[ItfId, ItfId]
     exit_course: dict[ItfId, Course] = field(default_factory=dict)
+    user_maps: dict[tuple[str, int, int], np.ndarray] = field(default_factory=dict)
     yarn_end: dict[str, Course] = field(default_factory=dict)
     """The last course a node knitted (where its yarn is), for continuity walks."""
     failed: bool = False
+
+    def param(self, name: str, span):
+        """`#name` inside a user shaper: the resolved design parameter."""
+        if name not in self.skel.params:
+            raise EvalError("E403", f"unknown parameter `#{name}`", span)
+        return self.skel.params[name]
 
     def gauge(self, node: PrimNode) -> int:
         return 2 if node.props["gauge"] == "half" else 1
@@ -310,6 +317,8 @@ def _sheet(state: _State, node: PrimNode, visit: NodeVisit) -> None:
                     _spread(acc, prev, cur)
             else:
                 _link(state, node, courses[-1], cur)
+                if state.failed:
+                    return
         if c == 0:
             acc.name(cur, ItfId(node.name, entry))
         courses.append(cur)
@@ -382,11 +391,24 @@ def _link(state: _State, node: PrimNode, a: Course, b: Course) -> None:
             state.failed = True
             return
         try:
-            src = shaper_map(program if program is not None else str(shaper), small, large)
-        except (MappingError, EvalError, ValueError) as err:
-            span = getattr(err, "span", None) or node.prop_spans.get("shaper", node.span)
+            if program is None:
+                src = shaper_map(str(shaper), small, large)
+            else:
+                key = (str(shaper), small, large)
+                if key not in state.user_maps:  # courses repeat: run each (M, N) once
+                    state.user_maps[key] = shaper_map(program, small, large,
+                                                      param=state.param)
+                src = state.user_maps[key]
+        except EvalError as err:
+            state.diags.error(err.code, err.message, err.span, hint=err.hint,
+                              notes=[Note(f"used by `{node.name}`",
+                                          node.prop_spans.get("shaper", node.span))])
+            state.failed = True
+            return
+        except (MappingError, ValueError) as err:
             state.diags.error("E531", f"shaper `{shaper}` failed for {small} → {large} "
-                              f"stitches: {getattr(err, 'message', err)}", span)
+                              f"stitches: {getattr(err, 'message', err)}",
+                              node.prop_spans.get("shaper", node.span))
             state.failed = True
             return
         if m <= n:
