@@ -173,7 +173,8 @@ def to_json(g: StitchGraph, *, stitches: bool = True) -> dict[str, Any]:
             return [[int(x) for x in row if x >= 0] for row in a]
         wn, wp = pairs(g.wale_next), pairs(g.wale_prev)
         out["stitches"] = [
-            {"id": i, "course": int(g.course[i]), "side": int(g.side[i]),
+            {"id": i, "course": int(g.course[i]),
+             "pos": i - int(g.course_start[int(g.course[i])]), "side": int(g.side[i]),
              "needle": int(g.needle[i]), "prev": int(g.cprev[i]), "next": int(g.cnext[i]),
              "wale_prev": wp[i], "wale_next": wn[i], "instr": INSTRUCTIONS[int(g.instr[i])],
              "action": int(g.action[i]), "yarn": int(g.yarn[i]),
