@@ -6,6 +6,8 @@
 #   make lint       ruff check
 #   make fmt-check  ruff format --check (make fmt applies it)
 #   make clean      remove build artifacts and caches (make distclean also removes .venv)
+#   make oracle-venv  create .venv-oracle, the independent Knitout oracle's own venv
+#                     (make test does it; make oracle-clean removes it)
 
 VENV    := .venv
 BIN     := $(VENV)/bin
@@ -15,8 +17,22 @@ PYTHON  ?= $(shell command -v python3.11 2>/dev/null || command -v python3)
 EXAMPLE := examples/sweater.knit
 SRC     := compiler tests
 
+# The independent Knitout oracle (knitout-interpreter + virtual-knitting-machine, see
+# shared/research/peers-and-oracles.md) gets its own venv and is never a knitc dependency.
+# tests/oracle.py runs tests/oracle_runner.py with its python. Python 3.12 runs it about 3x
+# faster than 3.11, so 3.12 is preferred: python3.12 on PATH if it runs (a pyenv shim may not),
+# else pyenv's newest 3.12, else python3.11. Override with `make ORACLE_BASE_PYTHON=...`.
+ORACLE_VENV := .venv-oracle
+ORACLE_PINS := knitout-interpreter==0.1.8 virtual-knitting-machine==0.0.31 knit-graphs==0.1.4
+ORACLE_BASE_PYTHON ?= $(shell \
+  pyroot=$$(pyenv root 2>/dev/null || echo "$$HOME/.pyenv"); \
+  for p in python3.12 $$(ls -d "$$pyroot"/versions/3.12.*/bin/python3.12 2>/dev/null | sort -V | tail -n 1) python3.11; do \
+    "$$p" -c 'import sys; sys.exit(sys.version_info[:2] not in ((3, 12), (3, 11)))' >/dev/null 2>&1 \
+      && { command -v "$$p"; break; }; \
+  done)
+
 .DEFAULT_GOAL := help
-.PHONY: help venv install run test lint fmt fmt-check clean distclean
+.PHONY: help venv install run test lint fmt fmt-check clean distclean oracle-venv oracle-clean
 
 help:
 	@echo "make run        install knitc into .venv and run the front end on $(EXAMPLE)"
@@ -25,6 +41,7 @@ help:
 	@echo "make fmt-check  ruff format --check $(SRC)   (make fmt: reformat)"
 	@echo "make venv       create .venv if missing;  make install: (re)install knitc into it"
 	@echo "make clean      remove build artifacts and caches;  make distclean: also .venv"
+	@echo "make oracle-venv  create $(ORACLE_VENV) (the Knitout oracle);  make oracle-clean: remove it"
 
 # The venv is created only if missing (its python is the stamp).
 venv: $(BIN)/python
@@ -49,7 +66,7 @@ run: install
 	@echo "make run: '$(EXAMPLE)' checks clean and is lowered to its stitch graph and traced" \
 	  "yarn ($(EXAMPLE:.knit=.trace.json)); Knitout generation is not implemented yet."
 
-test: venv
+test: venv oracle-venv
 	@rm -rf build
 	$(PIP) install -q ".[test]"
 	$(BIN)/python -m pytest
@@ -72,5 +89,21 @@ clean:
 	rm -rf build dist compiler/*.egg-info *.egg-info .pytest_cache .ruff_cache .hypothesis bench/tmp
 	find . -path ./$(VENV) -prune -o -type d -name __pycache__ -exec rm -rf {} +
 
-distclean: clean
+distclean: clean oracle-clean
 	rm -rf $(VENV)
+
+# Rebuilt only when missing or when ORACLE_PINS changed (the pins are its stamp). The venv gets
+# its own .gitignore so that git never sees it.
+oracle-venv:
+	@if [ -x $(ORACLE_VENV)/bin/python ] && [ "$$(cat $(ORACLE_VENV)/.pins 2>/dev/null)" = "$(ORACLE_PINS)" ]; then \
+	  exit 0; \
+	fi; \
+	py="$(ORACLE_BASE_PYTHON)"; \
+	if [ -z "$$py" ]; then echo "error: oracle-venv needs python3.12 or python3.11" >&2; exit 1; fi; \
+	echo "creating $(ORACLE_VENV) with $$py ($$("$$py" -V 2>&1)): $(ORACLE_PINS)"; \
+	rm -rf $(ORACLE_VENV) && "$$py" -m venv $(ORACLE_VENV) && echo '*' > $(ORACLE_VENV)/.gitignore && \
+	$(ORACLE_VENV)/bin/pip install -q --disable-pip-version-check $(ORACLE_PINS) && \
+	echo "$(ORACLE_PINS)" > $(ORACLE_VENV)/.pins
+
+oracle-clean:
+	rm -rf $(ORACLE_VENV)
