@@ -515,6 +515,28 @@ class _Chunk:
 _OPEN = {"{": "}", "(": ")", "[": "]"}
 
 
+_STRING = re.compile(r'"([^"\\\n]|\\.)*"?')
+
+
+def _skip_literal(text: str, i: int) -> int | None:
+    """If a grid, string or comment starts at `i`, the offset just after it (brackets inside
+    them do not count); else None."""
+    n = len(text)
+    if text.startswith('"""', i):
+        j = text.find('"""', i + 3)
+        return n if j < 0 else j + 3
+    if text.startswith('"', i):
+        m = _STRING.match(text, i)
+        return m.end() if m else i + 1
+    if text.startswith("//", i):
+        j = text.find("\n", i)
+        return n if j < 0 else j
+    if text.startswith("/*", i):
+        j = text.find("*/", i + 2)
+        return n if j < 0 else j + 2
+    return None
+
+
 def _chunks(text: str) -> list[_Chunk]:
     """Cut the file into top-level statements for independent error recovery."""
     chunks: list[_Chunk] = []
@@ -533,21 +555,9 @@ def _chunks(text: str) -> list[_Chunk]:
                     start = i
                 stack = []
         at_line_start = False
-        if text.startswith('"""', i):
-            j = text.find('"""', i + 3)
-            i = n if j < 0 else j + 3
-            continue
-        if ch == '"':
-            m = re.compile(r'"([^"\\\n]|\\.)*"?').match(text, i)
-            i = m.end() if m else i + 1
-            continue
-        if text.startswith("//", i):
-            j = text.find("\n", i)
-            i = n if j < 0 else j
-            continue
-        if text.startswith("/*", i):
-            j = text.find("*/", i + 2)
-            i = n if j < 0 else j + 2
+        skipped = _skip_literal(text, i)
+        if skipped is not None:
+            i = skipped
             continue
         if ch in _OPEN:
             stack.append(i)
@@ -567,23 +577,11 @@ def _open_brackets(text: str, start: int, end: int) -> list[int]:
     stack: list[int] = []
     i = start
     while i < end:
-        if text.startswith('"""', i):
-            j = text.find('"""', i + 3)
-            i = len(text) if j < 0 else j + 3
+        skipped = _skip_literal(text, i)
+        if skipped is not None:
+            i = skipped
             continue
         ch = text[i]
-        if ch == '"':
-            m = re.compile(r'"([^"\\\n]|\\.)*"?').match(text, i)
-            i = m.end() if m else i + 1
-            continue
-        if text.startswith("//", i):
-            j = text.find("\n", i)
-            i = len(text) if j < 0 else j
-            continue
-        if text.startswith("/*", i):
-            j = text.find("*/", i + 2)
-            i = len(text) if j < 0 else j + 2
-            continue
         if ch in _OPEN:
             stack.append(i)
         elif ch in ")]}" and stack:
