@@ -340,6 +340,8 @@ def _collapsed(state: _State, idx: int, w: int, off: int, gauge: int, first: boo
     `collapse`); `_link` pairs front k and back k with stitch k.
     """
     needle = np.arange(w, dtype=np.int32) + off
+    if first:  # end on the left, where the tube's first course begins
+        needle = needle[::-1]
     course = state.acc.course(idx, np.zeros(w, np.int8), needle, False, "interface", gauge)
     course.collapsed = True  # type: ignore[attr-defined]
     return course
