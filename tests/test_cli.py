@@ -282,14 +282,22 @@ def test_plain_compile_without_emit(capsys, write):
     assert code == 0 and out == "" and err == ""
 
 
-@pytest.mark.parametrize("argv", [["--emit", "schedule"], ["-o", "x.k"], ["--target", "dat"]])
+@pytest.mark.parametrize("argv", [["--emit", "schedule"], ["-o", "x.dat"], ["--target", "dat"]])
 def test_not_implemented_stages_fail_cleanly(capsys, write, tmp_path, argv):
-    argv = [a if a != "x.k" else str(tmp_path / "x.k") for a in argv]
+    argv = [a if a != "x.dat" else str(tmp_path / "x.dat") for a in argv]
     code, out, err = run(capsys, *argv, write(GOOD))
     assert code == 1
     assert "not implemented yet" in err
     assert "Traceback" not in err
-    assert not (tmp_path / "x.k").exists()
+    assert not (tmp_path / "x.dat").exists()
+
+
+def test_compile_to_knitout_writes_the_file(capsys, write, tmp_path):
+    out_path = tmp_path / "x.k"
+    code, out, err = run(capsys, "-o", str(out_path), write(GOOD))
+    assert code == 0, err
+    text = out_path.read_text()
+    assert text.startswith(";!knitout-2\n") and "\nknit " in text
 
 
 # ---- fmt ---------------------------------------------------------------------------------------

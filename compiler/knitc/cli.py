@@ -20,6 +20,7 @@ from knitc.driver import PLANNED_STAGES, STAGES, compile_file, emit_json
 
 EXAMPLES = """\
 examples:
+  knitc examples/tube.knit -o tube.k            compile to Knitout
   knitc check examples/glove.knit               check a design, report every problem
   knitc -D finger_len=26 check examples/glove.knit
   knitc --emit skeleton examples/sock.knit      print the resolved skeleton IR as JSON
@@ -108,20 +109,27 @@ def write_atomic(path: str, data: str | bytes) -> None:
 
 def _cmd_compile(args: argparse.Namespace) -> int:
     werror = "error" in args.warn
-    stage = args.emit or "skeleton"
-    until = stage if stage in STAGES else "trace"
+    target = args.target
+    if target is None and args.output and not args.emit:
+        target = "dat" if args.output.lower().endswith(".dat") else "knitout"
+    if args.emit in PLANNED_STAGES or target == "dat":
+        what = f"--emit {args.emit}" if args.emit else "the DAT back end"
+        sys.stderr.write(f"knitc: error: {what} is not implemented yet (Knitout is: "
+                         "-o FILE.k)\n")
+        return 1
+    until = args.emit if args.emit in STAGES else ("machine" if target else "trace")
     result = compile_file(args.file, defines=args.defines, until=until, werror=werror)
     _report(result.diagnostics, args.quiet)
     if not result.ok:
         return 1
-    if args.emit in PLANNED_STAGES or (args.emit is None and (args.output or args.target)):
-        what = f"--emit {args.emit}" if args.emit else "machine code generation"
-        sys.stderr.write(f"knitc: error: {what} is not implemented yet: this version stops at "
-                         "the traced yarn (try --emit trace or `knitc check`)\n")
-        return 1
-    if args.emit is None:
+    if args.emit is not None:
+        text = emit_json(result, args.emit)
+    elif target == "knitout":
+        from knitc.backends.knitout import write_knitout
+        assert result.program is not None
+        text = write_knitout(result.program)
+    else:
         return 0
-    text = emit_json(result, stage)
     if args.output:
         write_atomic(args.output, text)
     else:
@@ -131,7 +139,7 @@ def _cmd_compile(args: argparse.Namespace) -> int:
 
 def _cmd_check(args: argparse.Namespace) -> int:
     result = compile_file(args.file, defines=args.defines, werror="error" in args.warn,
-                          until="trace")
+                          until="machine")
     _report(result.diagnostics, args.quiet)
     return 0 if result.ok else 1
 

@@ -1,7 +1,8 @@
 """The pipeline, readable in one place.
 
     source ──parse──▶ AST ──resolve + verify──▶ Skeleton ──shape──▶ StitchGraph ──trace──▶ Trace
-    (later: slices, schedule, machine program, Knitout / DAT)
+      ──layout + codegen──▶ MachineProgram ──simulate──▶ diagnostics;  ──emit──▶ Knitout
+    (patterning, slicing/schedule optimisation and DAT come later)
 
 Each stage is a pure function of the previous IR plus a `Diagnostics` collection; the driver
 stops after the first stage that reported errors, because later stages would only repeat
@@ -16,20 +17,24 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from knitc.diagnostics import Diagnostics
+from knitc.ir import machine as mp
 from knitc.ir import skeleton as sk
 from knitc.ir import stitch_graph as sg
 from knitc.ir import trace as tr
+from knitc.passes.codegen import generate
+from knitc.passes.layout import layout
 from knitc.passes.resolve import parse_define, resolve
 from knitc.passes.shape import build_stitch_graph
+from knitc.passes.simulate import add_to_diagnostics, simulate
 from knitc.passes.trace import trace_courses
 from knitc.source import SourceFile
 from knitc.syntax import ast
 from knitc.syntax.parser import parse_source
 
-STAGES = ("ast", "skeleton", "stitch-graph", "trace")
+STAGES = ("ast", "skeleton", "stitch-graph", "trace", "machine")
 """IRs that `--emit` can print today, in pipeline order."""
 
-PLANNED_STAGES = ("slices", "schedule", "machine")
+PLANNED_STAGES = ("slices", "schedule")
 
 
 @dataclass
@@ -39,6 +44,7 @@ class Result:
     skeleton: sk.Skeleton | None = None
     graph: sg.StitchGraph | None = None
     trace: tr.Trace | None = None
+    program: mp.MachineProgram | None = None
     stage_reached: str = "none"
     defines: dict[str, ast.Node] = field(default_factory=dict)
 
@@ -80,6 +86,18 @@ def compile_source(text: str, path: str, *, defines: list[str] = (), until: str 
     if problems:
         raise AssertionError("tracing produced an invalid trace: " + "; ".join(problems))
     result.trace, result.stage_reached = trace, "trace"
+    if until == "trace":
+        return _finish(result, werror)
+    m = skel.machine
+    machine = mp.Machine(name=m.model, needles=m.needles, racking_limit=m.racking)
+    lay = layout(graph, m.needles, diags)
+    if lay is None:
+        return _finish(result, werror)
+    program = generate(graph, lay, trace, machine=machine, carriers=m.carriers, diags=diags)
+    if program is None:
+        return _finish(result, werror)
+    add_to_diagnostics(simulate(program), program, diags)
+    result.program, result.stage_reached = program, "machine"
     return _finish(result, werror)
 
 
@@ -116,6 +134,9 @@ def emit_json(result: Result, stage: str) -> str:
     elif stage == "trace":
         assert result.graph is not None and result.trace is not None
         obj = tr.to_json(result.graph, result.trace)
+    elif stage == "machine":
+        assert result.program is not None
+        obj = mp.to_json(result.program)
     else:
         raise ValueError(stage)
     return json.dumps(obj, indent=1, ensure_ascii=True, allow_nan=False) + "\n"
