@@ -1,7 +1,7 @@
 # knitc: developer commands. Everything runs inside ./.venv, which `make` creates itself;
 # nothing needs to be installed by hand beyond python3 (>= 3.11) with venv and pip.
 #
-#   make run        create .venv, install knitc into it, check and dump examples/sweater.knit
+#   make run        create .venv, install knitc into it, compile examples/glove.knit to Knitout
 #   make test       install knitc + test tools into .venv, run the test suite
 #   make lint       ruff check
 #   make fmt-check  ruff format --check (make fmt applies it)
@@ -14,7 +14,7 @@ BIN     := $(VENV)/bin
 PIP     := $(BIN)/pip
 # Prefer python3.11 if it is on PATH; override with `make PYTHON=/path/to/python`.
 PYTHON  ?= $(shell command -v python3.11 2>/dev/null || command -v python3)
-EXAMPLE := examples/sweater.knit
+EXAMPLE := examples/glove.knit
 SRC     := compiler tests
 
 # The independent Knitout oracle (knitout-interpreter + virtual-knitting-machine, see
@@ -35,7 +35,7 @@ ORACLE_BASE_PYTHON ?= $(shell \
 .PHONY: help venv install run test lint fmt fmt-check clean distclean oracle-venv oracle-clean
 
 help:
-	@echo "make run        install knitc into .venv and run the front end on $(EXAMPLE)"
+	@echo "make run        install knitc into .venv and compile $(EXAMPLE) to Knitout"
 	@echo "make test       install knitc and its test extra into .venv, run pytest"
 	@echo "make lint       ruff check $(SRC)"
 	@echo "make fmt-check  ruff format --check $(SRC)   (make fmt: reformat)"
@@ -62,9 +62,9 @@ install: venv
 
 run: install
 	$(BIN)/knitc check $(EXAMPLE)
-	$(BIN)/knitc --emit trace -o $(EXAMPLE:.knit=.trace.json) $(EXAMPLE)
-	@echo "make run: '$(EXAMPLE)' checks clean and is lowered to its stitch graph and traced" \
-	  "yarn ($(EXAMPLE:.knit=.trace.json)); Knitout generation is not implemented yet."
+	$(BIN)/knitc $(EXAMPLE) -o $(EXAMPLE:.knit=.k)
+	@echo "make run: compiled '$(EXAMPLE)' to Knitout ($(EXAMPLE:.knit=.k)); see README for" \
+	  "what the back end supports so far."
 
 test: venv oracle-venv
 	@rm -rf build
