@@ -135,10 +135,11 @@ class _Gen:
         other_path = "top" if entry_path == "bottom" else "bottom"
         sizes = {entry_path: entry_size if entry_size is not None else self.even_size(),
                  other_path: self.even_size()}
-        if self.draw(st.booleans()):
+        length = self.draw(st.integers(1, 60))
+        if length == 1 or self.draw(st.booleans()):
+            # one course: both interfaces are that course, so they have one size
             sizes[other_path] = sizes[entry_path]
         wb, wt = sizes["bottom"] // sides, sizes["top"] // sides
-        length = self.draw(st.integers(1, 60))
         node = GNode(self.fresh("n"), "tube" if kind == "tube" else "sheet", ["bottom", "top"],
                      sizes, length=length)
         props = [f"length: {self.expr(length) if self.draw(st.booleans()) else length}"]

@@ -261,7 +261,8 @@ def infer_sizes(skel: Skeleton) -> None:
     for node in skel.nodes.values():
         tub = node.tubular
         if node.kind in ("sheet", "tube") and tub is not None:
-            for path, t in (("bottom", 0.0), ("top", 1.0)):
+            one = int(node.props["length"]) == 1  # one course: both ends are that course
+            for path, t in (("bottom", 0.0), ("top", 0.0 if one else 1.0)):
                 itf = itfs[ItfId(node.name, path)]
                 itf.sides = 2 if tub else 1
                 itf.size = _width_at(node, t) * itf.sides
@@ -292,8 +293,10 @@ def infer_sizes(skel: Skeleton) -> None:
             elif node.kind == "split":
                 base, branches = paths[0], paths[1:]
                 if all(b.size is not None for b in branches):
-                    set_(base, sum(b.size for b in branches), 2 if node.props["folded"]
-                         else None)
+                    sides = {b.sides for b in branches}
+                    folded_sides = sides.pop() if len(sides) == 1 else None
+                    set_(base, sum(b.size for b in branches),
+                         folded_sides if node.props["folded"] else None)
                 unknown = [b for b in branches if b.size is None]
                 if base.size is not None and len(unknown) == 1 and \
                         unknown[0].state != "connected":
@@ -310,8 +313,9 @@ def infer_sizes(skel: Skeleton) -> None:
             elif node.kind == "sheet" and node.tubular is None:
                 bot, top = paths
                 sides = bot.sides or top.sides
+                one = int(node.props["length"]) == 1
                 if sides is not None:
-                    for p, t in ((bot, 0.0), (top, 1.0)):
+                    for p, t in ((bot, 0.0), (top, 0.0 if one else 1.0)):
                         set_(p, _width_at(node, t) * sides, sides)
 
 

@@ -104,8 +104,10 @@ def verify(g: StitchGraph) -> list[str]:
     if g.n_courses and (g.course_start[0] != 0 or ends[-1] != n
                         or np.any(g.course_start[1:] != ends[:-1])):
         problems.append("courses do not tile the stitch ids contiguously")
-    if np.any(np.repeat(np.arange(g.n_courses, dtype=np.int32), g.course_len) != g.course):
+    expected = np.repeat(np.arange(g.n_courses, dtype=np.int32), g.course_len)
+    if expected.shape != g.course.shape or np.any(expected != g.course):
         problems.append("per-stitch course ids disagree with the course table")
+        return problems
 
     # Course neighbours: prev/next are mutual, stay within the course, and form a path or cycle.
     for name, arr, other in (("cnext", g.cnext, g.cprev), ("cprev", g.cprev, g.cnext)):

@@ -59,6 +59,62 @@ def _neighbours(g: StitchGraph, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return same | course | wale
 
 
+def near(g: StitchGraph, a: int, b: int) -> bool:
+    """A justified one-step jump from stitch a to b: a diagonal onto the next course (a
+    spiral, or a wale child of a course neighbour), or the adjacent needle of the same bed
+    in the same node."""
+    for nb in (g.cnext[a], g.cprev[a]):
+        if nb >= 0 and b in g.wale_next[nb]:
+            return True
+    for ch in g.wale_next[a]:
+        if ch >= 0 and (g.cnext[ch] == b or g.cprev[ch] == b):
+            return True
+    return bool(g.node[a] == g.node[b] and g.side[a] == g.side[b]
+                and abs(int(g.needle[a]) - int(g.needle[b])) <= 1)
+
+
+def carriage_dirs(g: StitchGraph, stitch: np.ndarray, yarn: np.ndarray) -> np.ndarray:
+    """The carriage direction at each visit (+1 towards higher needles): the step that
+    brought the yarn to it from its previous visit on the same bed. A visit reached across
+    beds (or a yarn's first) takes the direction of the yarn's next step on one bed, and a
+    yarn that never steps along a bed goes rightward."""
+    n = stitch.shape[0]
+    d = np.zeros(n, np.int8)
+    if n == 0:
+        return d
+    order = np.lexsort((np.arange(n), yarn))
+    st, yn = stitch[order], yarn[order]
+    ar = np.arange(n)
+    step = np.zeros(n, np.int64)
+    same = (yn[1:] == yn[:-1]) & (g.side[st[1:]] == g.side[st[:-1]])
+    dn = g.needle[st[1:]].astype(np.int64) - g.needle[st[:-1]]
+    step[1:] = np.where(same, np.sign(dn), 0)
+    ends = np.r_[yn[1:] != yn[:-1], True]
+    group_end = np.minimum.accumulate(np.where(ends, ar, n)[::-1])[::-1]
+    starts = np.r_[True, yn[1:] != yn[:-1]]
+    group_start = np.maximum.accumulate(np.where(starts, ar, 0))
+    nxt = np.minimum.accumulate(np.where(step != 0, ar, n)[::-1])[::-1]
+    prv = np.maximum.accumulate(np.where(step != 0, ar, -1))
+    from_next = np.where(nxt <= group_end, step[np.minimum(nxt, n - 1)], 0)
+    from_prev = np.where(prv >= group_start, step[np.maximum(prv, 0)], 0)
+    out = np.where(step != 0, step, np.where(from_next != 0, from_next,
+                                             np.where(from_prev != 0, from_prev, 1)))
+    d[order] = out.astype(np.int8)
+    return d
+
+
+def start_end_flags(yarn: np.ndarray, flags: np.ndarray) -> None:
+    """Set START on each yarn's first visit and END on its last (in place)."""
+    n = yarn.shape[0]
+    if n == 0:
+        return
+    flags &= ~np.uint8(START | END)
+    _, first = np.unique(yarn, return_index=True)
+    _, last_rev = np.unique(yarn[::-1], return_index=True)
+    flags[first] |= START
+    flags[n - 1 - last_rev] |= END
+
+
 def verify(g: StitchGraph, t: Trace) -> list[str]:
     """Invariants of a trace over its stitch graph; empty = valid."""
     problems: list[str] = []
@@ -88,12 +144,18 @@ def verify(g: StitchGraph, t: Trace) -> list[str]:
         st, fl, yn = t.stitch[order], t.flags[order], t.yarn[order]
         a, b = st[:-1], st[1:]
         same_yarn = yn[:-1] == yn[1:]
-        ok = _neighbours(g, a, b) | ((fl[1:] & JUMP) != 0)
+        jump = (fl[1:] & JUMP) != 0
+        ok = _neighbours(g, a, b) | jump
         bad = same_yarn & ~ok
         if np.any(bad):
             i = int(np.nonzero(bad)[0][0])
             problems.append(f"yarn {int(yn[i])} jumps from stitch {int(a[i])} to {int(b[i])} "
                             "without a justification")
+        for i in np.nonzero(same_yarn & jump)[0][:10000]:
+            if not near(g, int(a[i]), int(b[i])):
+                problems.append(f"yarn {int(yn[i])} jumps from stitch {int(a[i])} to "
+                                f"{int(b[i])}, which is not a neighbouring needle")
+                break
     starts = np.count_nonzero(t.flags & START)
     if starts != t.n_yarns:
         problems.append(f"{starts} yarn starts for {t.n_yarns} yarns")

@@ -250,7 +250,7 @@ def _widths(node: PrimNode, count: int, reverse: bool) -> list[int]:
     prof = node.props["width"]
     assert isinstance(prof, Profile)
     ts = [c / (count - 1) if count > 1 else 0.0 for c in range(count)]
-    if reverse:
+    if reverse and count > 1:
         ts = [1 - t for t in ts]
     return [max(round_half_up(prof.at(t)), 1) for t in ts]
 
@@ -295,7 +295,8 @@ def _sheet(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     courses: list[Course] = []
     for c, w in enumerate(widths):
         off = _offset(alignment, w, max_w)
-        if c == 0 and prev is not None and prev.circular == tubular and \
+        closes_here = (c == 0 and itf_in.state == "closed") or (c == length - 1 and close_out)
+        if c == 0 and prev is not None and prev.circular == tubular and not closes_here and \
                 prev.per_bed == w and state.gauge(node) == _gauge_of(state, prev):
             cur = prev  # the connection's course is shared with the producer
         else:
@@ -313,7 +314,10 @@ def _sheet(state: _State, node: PrimNode, visit: NodeVisit) -> None:
                 kind = "interface" if c in (0, length - 1) else "regular"
                 cur = acc.course(idx, side, needle, tubular, kind, gauge)
             if c == 0:
-                if prev is not None:
+                if prev is not None and getattr(cur, "collapsed", False) and prev.circular \
+                        and prev.per_bed == cur.width:
+                    _link(state, node, prev, cur)
+                elif prev is not None:
                     _spread(acc, prev, cur)
             else:
                 _link(state, node, courses[-1], cur)
@@ -452,8 +456,11 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     tubular = state.tubular(node, entry)
     gauge = state.gauge(node)
     itf = skel.interfaces[ItfId(node.name, entry)]
-    per_bed = (itf.size or 0) // (2 if tubular else 1)
-    if bottom is None:
+    if bottom is not None:  # the course the joint continues decides its shape
+        tubular = bottom.circular
+        per_bed = bottom.per_bed
+    else:
+        per_bed = (itf.size or 0) // (2 if tubular else 1)
         side, needle = ring(per_bed, tubular)
         bottom = acc.course(idx, side, needle, tubular, "interface", gauge)
     acc.name(bottom, ItfId(node.name, entry))
@@ -472,12 +479,16 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
         t = r / (rows - 1) if rows > 1 else 0.0
         w = min(max(round_half_up(prof.at(t)), 1), G)
         if alignment == "left":
-            cols = [(center + c) % G for c in range(w)]
+            lo = center
         elif alignment == "right":
-            cols = [(center - c) % G for c in range(w)][::-1]
+            lo = center - w + 1
         else:
-            cols = [(center - w // 2 + c) % G for c in range(w)]
-        short.append(cols)
+            lo = center - w // 2
+        if not tubular:  # a flat short row cannot wrap round the edge: keep it on the bed
+            lo = min(max(lo, 0), G - w)
+        elif w == G:  # a full round: start it just after where the yarn arrives
+            lo = int(cols_of[-1]) + 1
+        short.append([(lo + c) % G for c in range(w)])
 
     def step(c: int, d: int) -> int | None:
         nxt = c + d
@@ -493,11 +504,16 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     first = short[0]
     ends = (first[0], first[-1])
     best: tuple[int, list[int], int] | None = None
+    inside = set(first) - set(ends)
+    if y in ends:  # the yarn is already at an end of the first short row
+        best = (d, [], y)
     for direction, inclusive in ((d, False), (-d, True)):
+        if best is not None and not best[1]:
+            break
         walk, c = ([y] if inclusive else []), y
         for _ in range(G + 1):
             c = step(c, direction)
-            if c is None:
+            if c is None or c in inside:  # off the bed, or through the row itself
                 walk = None
                 break
             if c in ends:
@@ -505,9 +521,36 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
             walk.append(c)
         if walk is not None and (best is None or len(walk) < len(best[1])):
             best = (direction, walk, c)
-    assert best is not None
+    lead: list[int] = []  # a continuity course before the first row (yarn inside it)
+    if y in inside:
+        # the yarn arrives inside the first row: knit along the row to its end first, then
+        # turn into the row (the original's direct binding, ch. 5.4)
+        for direction in (d, -d):
+            cols, c = [], y
+            for _ in range(G + 1):
+                c = step(c, direction)
+                if c is None:
+                    cols = None
+                    break
+                cols.append(c)
+                if c in ends:
+                    break
+            if cols is not None and cols and cols[-1] in ends:
+                lead = cols
+                best = (direction, [], cols[-1])
+                break
+    if best is None or (y in inside and not lead):
+        state.diags.error(
+            "E532", f"the short rows of joint `{node.name}` cannot start where the yarn "
+            "arrives from the course below", node.prop_spans.get("layout", node.span),
+            hint="short rows must be narrower than the course and away from where the "
+                 "previous course ends: change `layout` or `width`")
+        state.failed = True
+        return
     direction, walk, reached = best
     row = first if reached == first[0] else first[::-1]
+    if lead and len(row) > 1 and lead[-1] == row[0]:
+        pass  # the row starts where the lead course ends and turns back along it
     seqs.append(walk + row)
     d = 1 if len(row) < 2 else (1 if step(row[0], 1) == row[1] else -1)
     for nxt in short[1:]:
@@ -555,6 +598,8 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
         return acc.course(idx, side, needle, False, kind, gauge)
 
     built = [bottom]
+    if lead:
+        built.append(course_at(lead, "continuity"))
     for s in seqs:
         built.append(course_at(s, "short_row"))
     if cont:
@@ -593,7 +638,8 @@ def _branch_layout(state: _State, node: PrimNode, base_per_bed: int, tubular: bo
         br_tub = (itf.sides or (2 if tubular and node.props["folded"] else 1)) == 2
         tubes.append(br_tub)
         sizes.append((itf.size or 0) // (2 if br_tub else 1))
-    folded = bool(node.props["folded"])
+    # flat branches of a tubular base lie around its ring, folded or not
+    folded = bool(node.props["folded"]) and (not tubular or all(tubes))
     unfolded = tubular and not folded
     span = base_per_bed * (2 if unfolded else 1)
     layout = node.props.get("layout", "auto")
@@ -663,6 +709,12 @@ def _split(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     for path, (off, w, tub, back) in zip(paths, layout, strict=True):
         prev = _incoming(state, node, path)
         side, needle = _branch_positions(off, w, tub, back, base_per_bed)
+        if prev is not None and (prev.circular != tub or prev.width != side.size):
+            # the producer's course does not fit the branch (flat into tube or sizes
+            # differ): give the branch its own course, spread from the producer's
+            own = acc.course(idx, side, needle, tub, "interface", gauge)
+            _spread(acc, prev, own)
+            prev = own
         if prev is None:
             prev = acc.course(idx, side, needle, tub, "interface", gauge)
             frame_course = prev
@@ -679,7 +731,8 @@ def _split(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     last = branch_courses[last_idx]
     knitted_last = state.exit_course.get(state.partner.get(ItfId(node.name, paths[last_idx])))
     end_id = int(knitted_last.ids[-1]) if knitted_last is not None else int(last.ids[-1])
-    at = int(np.nonzero(last.ids == end_id)[0][0])
+    hit = np.nonzero(last.ids == end_id)[0]
+    at = int(hit[0]) if hit.size else last.width - 1  # a spread branch: its own course
     y = int(_ring_index(last.side[at:at + 1], last.needle[at:at + 1], base_per_bed,
                         tubular)[0])
     G = base_per_bed * (2 if tubular else 1)

@@ -35,43 +35,21 @@ def _adjacent(g: StitchGraph, a: int, b: int) -> bool:
     return False
 
 
-def _near(g: StitchGraph, a: int, b: int) -> bool:
-    """A one-step jump: a diagonal onto the next course (a spiral, or a wale child of a
-    course neighbour), or an adjacent needle of the same node."""
-    for nb in (g.cnext[a], g.cprev[a]):
-        if nb >= 0 and b in g.wale_next[nb]:
-            return True
-    for ch in g.wale_next[a]:
-        if ch >= 0 and (g.cnext[ch] == b or g.cprev[ch] == b):
-            return True
-    return g.node[a] == g.node[b] and abs(int(g.needle[a]) - int(g.needle[b])) <= 1
-
-
-def _course_dirs(g: StitchGraph, c: int) -> np.ndarray:
-    ids = g.course_ids(c)
-    if g.course_circular[c]:
-        return np.where(g.side[ids] == 0, 1, -1).astype(np.int8)
-    if ids.size > 1:
-        d = 1 if g.needle[ids[-1]] >= g.needle[ids[0]] else -1
-    else:
-        d = 1
-    return np.full(ids.size, d, np.int8)
+_near = tr.near
 
 
 def trace_courses(g: StitchGraph) -> tr.Trace:
     """Single-pass tracing in knitting order (see the module docstring)."""
     n = g.n_stitches
     yarn = np.zeros(n, np.int16)
-    dirs = np.zeros(n, np.int8)
     flags = np.zeros(n, np.uint8)
     last_of: list[int] = []  # yarn -> its last stitch
-    last_dir: list[int] = []
+    joins: list[tuple[int, int]] = []  # (first stitch of a course, previous stitch of its yarn)
     for c in range(g.n_courses):
         ids = g.course_ids(c)
         if ids.size == 0:
             continue
         first = int(ids[0])
-        d = _course_dirs(g, c)
         chosen = -1
         jump = False
         for y in range(len(last_of) - 1, -1, -1):  # most recent yarn first
@@ -80,31 +58,26 @@ def trace_courses(g: StitchGraph) -> tr.Trace:
                 break
         if chosen < 0:
             for y in range(len(last_of) - 1, -1, -1):
-                if last_of[y] >= 0 and _near(g, last_of[y], first):
+                if _near(g, last_of[y], first):
                     chosen, jump = y, True
                     break
         if chosen < 0:
             chosen = len(last_of)
             last_of.append(-1)
-            last_dir.append(0)
-            flags[first] |= tr.START
         else:
             if jump:
                 flags[first] |= tr.JUMP
-            if g.course_kind[c] in _TURNING and int(d[0]) == -last_dir[chosen] and \
-                    not g.course_circular[c]:
-                flags[first] |= tr.TUCK_PREV
-        if ids.size == 1 and not g.course_circular[c] and last_dir[chosen]:
-            d = np.array([-last_dir[chosen]], np.int8)
+            if g.course_kind[c] in _TURNING and not g.course_circular[c]:
+                joins.append((first, last_of[chosen]))
         yarn[ids] = chosen
-        dirs[ids] = d
         last_of[chosen] = int(ids[-1])
-        last_dir[chosen] = int(d[-1])
-    for s in last_of:
-        if s >= 0:
-            flags[s] |= tr.END
-    return tr.Trace(np.arange(n, dtype=np.int32), yarn, dirs, flags, passes=1,
-                    method="courses")
+    stitch = np.arange(n, dtype=np.int32)
+    dirs = tr.carriage_dirs(g, stitch, yarn)
+    for first, prev in joins:  # short rows turn on the same bed: tuck (ch. 5.4)
+        if g.side[first] == g.side[prev] and dirs[first] != dirs[prev]:
+            flags[first] |= tr.TUCK_PREV
+    tr.start_end_flags(yarn, flags)
+    return tr.Trace(stitch, yarn, dirs, flags, passes=1, method="courses")
 
 
 def trace_rules(g: StitchGraph, passes: int = 2,
@@ -227,14 +200,20 @@ def trace_rules(g: StitchGraph, passes: int = 2,
             out_flags[-1] |= tr.END
             cur = -1
             continue
-        y = yarn if yarn_of is None else yarn_of(nxt)
         if not _adjacent(g, cur, nxt):
+            if not _near(g, cur, nxt):  # too far to carry the yarn: end it (R6)
+                cur = -1
+                continue
             flag |= tr.JUMP
+        y = yarn if yarn_of is None else yarn_of(nxt)
         knit(nxt, y, o, flag)
         remaining -= 1
         cur = nxt
     if out_flags:
         out_flags[-1] |= tr.END
-    return tr.Trace(np.asarray(out_stitch, np.int32), np.asarray(out_yarn, np.int16),
-                    np.asarray(out_dir, np.int8), np.asarray(out_flags, np.uint8),
+    stitch = np.asarray(out_stitch, np.int32)
+    yarns = np.asarray(out_yarn, np.int16)
+    flags = np.asarray(out_flags, np.uint8)
+    tr.start_end_flags(yarns, flags)
+    return tr.Trace(stitch, yarns, tr.carriage_dirs(g, stitch, yarns), flags,
                     passes=passes, method="rules")
