@@ -1,7 +1,7 @@
 # knitc: developer commands. Everything runs inside ./.venv, which `make` creates itself;
 # nothing needs to be installed by hand beyond python3 (>= 3.11) with venv and pip.
 #
-#   make run        create .venv, install knitc into it, compile examples/glove.knit to Knitout
+#   make run        create .venv, install knitc into it, compile examples/sweater.knit to Knitout
 #   make test       install knitc + test tools into .venv, run the test suite
 #   make lint       ruff check
 #   make fmt-check  ruff format --check (make fmt applies it)
@@ -14,7 +14,7 @@ BIN     := $(VENV)/bin
 PIP     := $(BIN)/pip
 # Prefer python3.11 if it is on PATH; override with `make PYTHON=/path/to/python`.
 PYTHON  ?= $(shell command -v python3.11 2>/dev/null || command -v python3)
-EXAMPLE := examples/glove.knit
+EXAMPLE := examples/sweater.knit
 SRC     := compiler tests
 
 # The independent Knitout oracle (knitout-interpreter + virtual-knitting-machine, see

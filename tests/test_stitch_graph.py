@@ -845,3 +845,45 @@ def test_closed_end_of_a_shared_one_course_tube():
     top = named(g, "b.top")
     assert not g.course_circular[top] and int(g.course_len[top]) == 3
     assert all(len(prevs(g, s)) == 2 for s in g.course_ids(top))
+
+
+MIXED_SIDES = {
+    # A folded split whose branches are one flat, one tubular (both knitted into it).
+    "folded-merge-flat-and-tube": """\
+sheet n4 { length: 1  type: flat  width: 2 }
+split n5 { degree: 2 }
+n4.top -> n5.branches[0]
+sheet n6 { length: 1  type: cylinder  width: 1 }
+n5.branches[1] -> n6.bottom
+""",
+    "folded-merge-flat-and-shaped-tube": """\
+sheet n4 { length: 1  type: flat  width: 2 }
+split n5 { degree: 2 }
+n4.top -> n5.branches[0]
+sheet n6 { length: 3  type: cylinder  width: [0: 2, 0.5: 3, 1: 2] }
+n5.branches[1] -> n6.bottom
+""",
+    # A flat branch makes the folded base flat, while a tubular joint meets the base.
+    "tube-joint-into-flat-folded-base": """\
+tube n2 { length: 1  width: 1 }
+joint n5 { rows: 1 }
+n2.top -> n5.bottom
+split n6 { degree: 1 }
+n5.top -> n6.base
+sheet n7 { length: 1  type: flat  width: 2 }
+n6.branches[0] -> n7.bottom
+""",
+}
+
+
+@pytest.mark.parametrize("name", list(MIXED_SIDES))
+@pytest.mark.xfail(strict=True, reason="KNOWN BUG: interfaces around a split that disagree on "
+                   "their number of sides crash the shape pass (AssertionError / IndexError); "
+                   "the resolver accepts them. test_props_shape.py skips these crashes until "
+                   "this XPASSes")
+def test_mixed_split_sides_do_not_crash(name):
+    r = compile_source(MIXED_SIDES[name], "t.knit", until="stitch-graph")
+    if r.graph is not None:
+        assert sg.verify(r.graph) == []
+    else:
+        assert r.diagnostics.has_errors

@@ -102,39 +102,66 @@ class _Gen:
     def move(self, moves: list[tuple[int, tuple[str, int], tuple[str, int]]]) -> None:
         """Move loops (stitch, from, to): cross-bed moves directly, then same-bed shifts
         parked on the opposite sliders and returned one racking at a time."""
-        cross = [m for m in moves if m[1][0] != m[2][0]]
+        if not moves:
+            return
         shift = [m for m in moves if m[1][0] == m[2][0] and m[1] != m[2]]
-        for s, src, dst in sorted(cross, key=lambda m: (m[1][0] == "f" and
-                                                          m[1][1] - m[2][1] or
-                                                          m[2][1] - m[1][1], m[1])):
-            # at racking r, back k faces front k + r
-            r = src[1] - dst[1] if src[0] == "f" else dst[1] - src[1]
+        cross = []
+        for s, src, dst in moves:
+            if src[0] != dst[0]:
+                # at racking r, back k faces front k + r
+                r = src[1] - dst[1] if src[0] == "f" else dst[1] - src[1]
+                cross.append((r, s, src, dst))
+        self._cross(cross)
+        self._shift(shift)
+
+    def _cross(self, cross: list) -> None:
+        for r, s, src, dst in sorted(cross, key=lambda m: (m[0], m[2])):
             self.set_rack(r)
             if self.where.get(s) == src:
                 self.xfer(src, dst, s)
+        self.set_rack(0)
+
+    def _shift(self, shift: list) -> None:
         if not shift:
-            self.set_rack(0)
             return
-        self.set_rack(0)
-        parked: list[tuple[int, tuple[str, int], tuple[str, int]]] = []
-        seen: set[tuple[str, int]] = set()
-        for s, src, dst in sorted(shift, key=lambda m: m[1]):
-            if src in seen or self.where.get(s) != src:
-                continue
-            seen.add(src)
-            slider = (SLIDERS[1] if src[0] == "f" else SLIDERS[0], src[1])
-            self.xfer(src, slider, s)
-            parked.append((s, slider, dst))
-        by_rack: dict[int, list] = defaultdict(list)
-        for s, slider, dst in parked:
-            # back slider i faces front i + r; front slider i faces back i - r
-            r = dst[1] - slider[1] if dst[0] == "f" else slider[1] - dst[1]
-            by_rack[r].append((s, slider, dst))
-        for r in sorted(by_rack, key=lambda x: (abs(x), x)):
-            self.set_rack(r)
-            for s, slider, dst in sorted(by_rack[r], key=lambda m: m[1]):
-                self.xfer(slider, dst, s)
-        self.set_rack(0)
+        # Same-bed shifts, in rounds: every loop still away from its target is parked on
+        # the facing slider and put back at most `max_rack` needles closer. The loops of a
+        # course transition keep their order (wales never cross), so a loop never lands
+        # on a needle another loop still holds, except its decrease partner.
+        todo = {s: dst for s, src, dst in shift}
+        final = set(todo.values())
+        rounds = 0
+        while True:
+            rounds += 1
+            if rounds > 4 + max((abs(d[1] - p[1]) for _s, p, d in shift), default=0):
+                raise _Unsupported("shaping moves do not converge")
+            pending = [(s, self.where[s], dst) for s, dst in todo.items()
+                       if s in self.where and self.where[s] != dst]
+            if not pending:
+                break
+            parked = []
+            seen: set[tuple[str, int]] = set()
+            for s, src, dst in sorted(pending, key=lambda m: m[1]):
+                if src in seen:  # stacked loops travel together
+                    continue
+                seen.add(src)
+                slider = (SLIDERS[1] if src[0] == "f" else SLIDERS[0], src[1])
+                self.xfer(src, slider, s)
+                step = max(-self.max_rack, min(self.max_rack, dst[1] - src[1]))
+                parked.append((s, slider, (src[0], src[1] + step)))
+            by_rack: dict[int, list] = defaultdict(list)
+            for s, slider, land in parked:
+                # back slider i faces front i + r; front slider i faces back i - r
+                r = land[1] - slider[1] if land[0] == "f" else slider[1] - land[1]
+                by_rack[r].append((s, slider, land))
+            for r in sorted(by_rack, key=lambda x: (abs(x), x)):
+                self.set_rack(r)
+                for s, slider, land in sorted(by_rack[r], key=lambda m: m[1]):
+                    if self.loops.get(land, 0) and land not in final:
+                        raise _Unsupported(f"a shaping move would land on {land[0]}{land[1]}, "
+                                           "which holds another loop")
+                    self.xfer(slider, land, s)
+            self.set_rack(0)
 
 
 class _Unsupported(Exception):

@@ -56,6 +56,7 @@ def layout(g: StitchGraph, needles: int, diags: Diagnostics) -> Layout | None:
     first_course: dict[int, int] = {}
     for c in range(g.n_courses):
         first_course.setdefault(int(g.course_node[c]), c)
+    root_slot = _root_slots(g, step, first_course)
     for node in sorted(first_course, key=first_course.__getitem__):
         ids = np.nonzero(g.node == node)[0]
         s = int(step[node])
@@ -69,14 +70,15 @@ def layout(g: StitchGraph, needles: int, diags: Diagnostics) -> Layout | None:
             f = int(np.median(rel))
         else:
             lo = int(_physical(g, ids, s, 0).min()) if ids.size else 0
-            f = right_edge - lo
+            f = root_slot.get(node, right_edge) - lo
         # keep the gauge parity: half-gauge fronts on even needles
         if s == 2 and f % 2:
             f += 1
         frame[node] = f
         placed[node] = True
         needle[ids] = _physical(g, ids, s, f)
-        right_edge = max(right_edge, int(needle[ids].max()) + 1 + MARGIN)
+        right_edge = max(right_edge, int(needle[ids].max()) + 1 + MARGIN,
+                         max(root_slot.values(), default=0))
     lo = int(needle.min()) if needle.size else 0
     if lo < MARGIN:
         shift = MARGIN - lo
@@ -89,3 +91,56 @@ def layout(g: StitchGraph, needles: int, diags: Diagnostics) -> Layout | None:
                     f"{needles}", None, hint="narrow the design or use a wider machine")
         return None
     return out
+
+
+def _root_slots(g: StitchGraph, step: np.ndarray, first_course: dict[int, int]
+                ) -> dict[int, int]:
+    """Left needles for the pieces that start a yarn of their own, side by side in the order
+    in which they will meet: pieces feeding one merge are placed in the order of the
+    branches they enter, so their loops never cross on the way into it."""
+    n_nodes = len(g.node_names)
+    src, slot = np.nonzero(g.wale_next >= 0)
+    dst = g.wale_next[src, slot]
+    cross = g.node[src] != g.node[dst]
+    edges = set(zip(g.node[src][cross].tolist(), g.node[dst][cross].tolist(), strict=True))
+    producers: dict[int, set[int]] = {n: set() for n in range(n_nodes)}
+    consumers: dict[int, set[int]] = {n: set() for n in range(n_nodes)}
+    for a, b in edges:
+        consumers[a].add(b)
+        producers[b].add(a)
+    roots = [n for n in sorted(first_course, key=first_course.__getitem__) if not producers[n]]
+    keys: dict[int, tuple[float, float]] = {}
+    extent: dict[int, int] = {}
+    for r in roots:
+        chain, frontier, merge = [r], [r], None
+        while frontier and merge is None:
+            nxt = []
+            for n in frontier:
+                for c in consumers[n]:
+                    if len(producers[c]) > 1:
+                        merge = (c, n)
+                        break
+                    chain.append(c)
+                    nxt.append(c)
+                if merge:
+                    break
+            frontier = nxt
+        width = 0
+        for n in chain:
+            ids = np.nonzero(g.node == n)[0]
+            if ids.size:
+                width = max(width, int((g.needle[ids].max() - g.needle[ids].min() + 1)
+                                       * step[n] + 1))
+        extent[r] = width
+        if merge is None:
+            keys[r] = (first_course[r], 0.0)
+        else:
+            c, n = merge
+            land = dst[cross][(g.node[src][cross] == n) & (g.node[dst][cross] == c)]
+            keys[r] = (first_course[c], float(np.mean(g.needle[land])))
+    slots: dict[int, int] = {}
+    edge = MARGIN
+    for r in sorted(roots, key=lambda n: (keys[n], first_course[n])):
+        slots[r] = edge
+        edge += extent[r] + MARGIN
+    return slots
