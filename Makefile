@@ -32,7 +32,7 @@ ORACLE_BASE_PYTHON ?= $(shell \
   done)
 
 .DEFAULT_GOAL := help
-.PHONY: help venv install run test lint fmt fmt-check clean distclean oracle-venv oracle-clean
+.PHONY: help venv install run test lint fmt fmt-check clean distclean oracle-venv oracle-clean bench
 
 help:
 	@echo "make run        install knitc into .venv and compile $(EXAMPLE) to Knitout"
@@ -70,6 +70,10 @@ test: venv oracle-venv
 	@rm -rf build
 	$(PIP) install -q ".[test]"
 	$(BIN)/python -m pytest
+
+# Speed and memory of every example and of a scaling series (bench/results.json).
+bench: install
+	$(BIN)/python bench/run.py
 
 # ruff comes with the test extra; install just ruff when only lint is asked for.
 $(BIN)/ruff: | $(BIN)/python

@@ -51,6 +51,8 @@ class _Gen:
     loops: dict[tuple[str, int], int] = field(default_factory=lambda: defaultdict(int))
     where: dict[int, tuple[str, int]] = field(default_factory=dict)
     """Current position (bed or slider name, needle) of each live stitch's loop."""
+    at: dict[tuple[str, int], set[int]] = field(default_factory=lambda: defaultdict(set))
+    """The inverse of `where`: the stitches whose loops are on a needle."""
     rack: int = 0
     carrier_of: dict[int, int] = field(default_factory=dict)
     where_span: object = None
@@ -73,26 +75,39 @@ class _Gen:
                        span=self.span(stitch))
         moved = self.loops.pop(src, 0)
         self.loops[dst] += moved
-        for s, pos in self.where.items():
-            if pos == src:
-                self.where[s] = dst
+        for s in self.at.pop(src, ()):
+            self.where[s] = dst
+            self.at[dst].add(s)
 
     def stitch_op(self, kind: str, d: int, pos: tuple[str, int], stitch: int,
                   carrier: int) -> None:
         emit = self.prog.knit if kind == "knit" else self.prog.tuck
         emit(d, f"{pos[0]}{pos[1]}", (carrier,), stitch=stitch, span=self.span(stitch))
         if kind == "knit":
-            for s in [s for s, p in self.where.items() if p == pos]:
+            for s in self.at.pop(pos, ()):
                 del self.where[s]
             self.loops[pos] = 1
         elif kind == "tuck":
             self.loops[pos] += 1
+        self._place(stitch, pos)
+
+    def _place(self, stitch: int, pos: tuple[str, int]) -> None:
+        old = self.where.get(stitch)
+        if old is not None:
+            self.at[old].discard(stitch)
         self.where[stitch] = pos
+        self.at[pos].add(stitch)
+
+    def forget(self, stitch: int) -> None:
+        """Stop tracking a loop that belongs to no stitch of the graph (cast-on tucks)."""
+        pos = self.where.pop(stitch, None)
+        if pos is not None:
+            self.at[pos].discard(stitch)
 
     def drop(self, pos: tuple[str, int], stitch: int) -> None:
         self.prog.drop(f"{pos[0]}{pos[1]}", stitch=stitch, span=self.span(stitch))
         self.loops.pop(pos, None)
-        for s in [s for s, p in self.where.items() if p == pos]:
+        for s in self.at.pop(pos, ()):
             del self.where[s]
 
     # -- geometry
@@ -248,18 +263,18 @@ def _cast_on(gen: _Gen, ids: np.ndarray, carrier: int) -> None:
     first, second = order[0::2], order[1::2]
     for s in first:
         gen.stitch_op("tuck", -1, gen.pos(s), -1, carrier)
-        gen.where.pop(-1, None)
+        gen.forget(-1)
     gen.prog.releasehook((carrier,))
     for s in reversed(second):
         gen.stitch_op("tuck", 1, gen.pos(s), -1, carrier)
-        gen.where.pop(-1, None)
+        gen.forget(-1)
     # The yarn is now at the right. If the first course starts at its left end, knit one
     # plain leftward pass over the tucks so the yarn is where that course begins.
     start = gen.pos(int(ids[0]))
     if start[1] < gen.pos(order[0])[1]:
         for s in order:
             gen.stitch_op("knit", -1, gen.pos(s), -1, carrier)
-            gen.where.pop(-1, None)
+            gen.forget(-1)
 
 
 def _cast_off(gen: _Gen, ends: list[int], carrier: int, d: int) -> None:
