@@ -755,7 +755,7 @@ def test_glove_continuity_differs_from_the_original():
     assert 5140 - 5100 == (50 - 30) + (60 - 40)
 
 
-# ---- known bugs (strict xfails: they XPASS once fixed) ----------------------------------------
+# ---- crashes these tests found: regressions (fixed in bfe996e) and known bugs ----------------
 
 KNOWN_CRASHES = {  # inputs that once crashed the shape pass; now a graph or a diagnostic
     # A joint whose first short row contains the column the yarn arrives at (or spans the
@@ -877,12 +877,19 @@ n6.branches[0] -> n7.bottom
 
 
 @pytest.mark.parametrize("name", list(MIXED_SIDES))
-@pytest.mark.xfail(strict=True, reason="KNOWN BUG: interfaces around a split that disagree on "
-                   "their number of sides crash the shape pass (AssertionError / IndexError); "
-                   "the resolver accepts them. test_props_shape.py skips these crashes until "
-                   "this XPASSes")
 def test_mixed_split_sides_do_not_crash(name):
     r = compile_source(MIXED_SIDES[name], "t.knit", until="stitch-graph")
+    if r.graph is not None:
+        assert sg.verify(r.graph) == []
+    else:
+        assert r.diagnostics.has_errors
+
+
+@pytest.mark.parametrize("closing", ["zigzag", "zigzagreturn"])
+def test_zigzag_course_into_joint(closing):
+    r = compile_source("tube a { length: 1  width: 2 }\njoint j { rows: 1 }\na.top -> j.bottom\n"
+                       f"tube b {{ length: 2  width: 2 }}\nj.top -> b.bottom\n"
+                       f"a.bottom closed({closing})\n", "t.knit", until="stitch-graph")
     if r.graph is not None:
         assert sg.verify(r.graph) == []
     else:

@@ -6,8 +6,8 @@ trace must pass `trace.verify` and the independent checks below. Then the number
 original reports for the knitskel ports (yarns, tucks), the `--emit trace` dump, and
 hand-corrupted traces that the verifier must reject.
 
-Behaviour that is wrong today is pinned as strict xfails (`KNOWN BUG`): they XPASS, and
-fail loudly, once fixed.
+The last section holds regression tests for the tracing bugs these tests found (carriage
+directions, tucks, far JUMPs, the R7/R8 hook, a closed start), fixed in c2df2e1 and bfe996e.
 """
 
 from __future__ import annotations
@@ -365,7 +365,7 @@ def test_verifier_catches_missing_yarn_starts(tube):
     assert "1 yarn starts for 2 yarns" in tr.verify(g, bad)
 
 
-# ---- known bugs (strict xfails) --------------------------------------------------------------
+# ---- regressions: bugs these tests found --------------------------------------------------------
 
 def test_trace_rules_direction_on_flat_courses():
     g = graph(str(ROOT / "examples" / "sheet.knit"))
@@ -377,16 +377,14 @@ def test_trace_courses_direction_on_a_course_crossing_beds():
     assert direction_errors(g, traced(knitskel("sock"), "courses")) == []
 
 
+@pytest.mark.parametrize("tracer", list(TRACERS))
 @pytest.mark.parametrize("path", EXAMPLES, ids=IDS)
-def test_trace_courses_directions_elsewhere(path):
-    """Away from tubular joints (see the xfail above), trace_courses' directions follow
-    the needles."""
-    g, t = graph(str(path)), traced(str(path), "courses")
-    turning = {sg.COURSE_KINDS.index("short_row"), sg.COURSE_KINDS.index("continuity")}
-    tubular_joint = {int(g.node[s]) for s in range(g.n_stitches)
-                     if g.course_kind[g.course[s]] in turning and g.side[s] == 1}
-    bad = [i for i in direction_errors(g, t) if int(g.node[t.stitch[i]]) not in tubular_joint]
-    assert bad == []
+def test_directions_follow_the_needles_and_jumps_are_near(path, tracer):
+    """Every tracer, every example: `dir` is the needle step along a bed, and a JUMP
+    bridges at most a neighbouring needle or a spiral's diagonal."""
+    g, t = graph(str(path)), traced(str(path), tracer)
+    assert direction_errors(g, t) == []
+    assert far_jumps(g, t) == []
 
 
 def test_trace_rules_jumps_are_near():

@@ -457,6 +457,13 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     gauge = state.gauge(node)
     itf = skel.interfaces[ItfId(node.name, entry)]
     if bottom is not None:  # the course the joint continues decides its shape
+        if not bottom.circular and np.unique(bottom.side).size > 1:
+            state.diags.error("E533", f"joint `{node.name}` cannot continue a course closed "
+                              "across both beds (a zigzag closing)", node.span,
+                              hint="put at least one course of a tube between the closing "
+                                   "and the short rows")
+            state.failed = True
+            return
         tubular = bottom.circular
         per_bed = bottom.per_bed
     else:
@@ -636,6 +643,7 @@ def _branch_layout(state: _State, node: PrimNode, base_per_bed: int, tubular: bo
     for i in range(degree):
         itf = skel.interfaces[ItfId(node.name, f"branches/{i}")]
         br_tub = (itf.sides or (2 if tubular and node.props["folded"] else 1)) == 2
+        br_tub = br_tub and tubular  # on a flat base every branch lies flat
         tubes.append(br_tub)
         sizes.append((itf.size or 0) // (2 if br_tub else 1))
     # flat branches of a tubular base lie around its ring, folded or not
@@ -690,6 +698,13 @@ def _split(state: _State, node: PrimNode, visit: NodeVisit) -> None:
 
     if visit.entries == ("base",):
         base = _incoming(state, node, "base")
+        expected = base_per_bed * (2 if tubular else 1)
+        if base is not None and (base.circular != tubular or base.width != expected):
+            # the producer's course does not fit the base ring: spread it onto one that does
+            side, needle = ring(base_per_bed, tubular)
+            own = acc.course(idx, side, needle, tubular, "interface", gauge)
+            _spread(acc, base, own)
+            base = own
         if base is None:
             side, needle = ring(base_per_bed, tubular)
             base = acc.course(idx, side, needle, tubular, "interface", gauge)
