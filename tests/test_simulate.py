@@ -17,27 +17,11 @@ from knitc.source import SourceFile
 from oracle import OracleReport, run_oracle_on_text
 from test_knitout_backend import every_kind, tiny
 from test_machine_ir import flat_swatch, half_gauge_tube, row_span
+from test_oracle_harness import CAST_ON, FINISH  # one shared six-stitch swatch
 
 # Thresholds of the oracle's own hazard warnings (4 loops on a needle, floats over 20).
 ORACLE_LIMITS = {"max_loops": 3, "max_float": 20}
 
-CAST_ON = """\
-inhook 3
-tuck - f6 3
-tuck - f4 3
-tuck - f2 3
-tuck + f1 3
-tuck + f3 3
-tuck + f5 3
-knit - f6 3
-knit - f5 3
-knit - f4 3
-knit - f3 3
-knit - f2 3
-knit - f1 3
-releasehook 3
-"""
-FINISH = "outhook 3\n" + "".join(f"drop f{n}\n" for n in range(1, 7))
 
 
 def sim(text: str, **kw) -> list[Finding]:
