@@ -48,6 +48,8 @@ class Course:
     side: np.ndarray
     needle: np.ndarray
     circular: bool
+    collapsed: bool = False
+    """A closed tube end: one stitch per needle pair, linked to both beds' loops."""
 
     @property
     def width(self) -> int:
@@ -314,7 +316,7 @@ def _sheet(state: _State, node: PrimNode, visit: NodeVisit) -> None:
                 kind = "interface" if c in (0, length - 1) else "regular"
                 cur = acc.course(idx, side, needle, tubular, kind, gauge)
             if c == 0:
-                if prev is not None and getattr(cur, "collapsed", False) and prev.circular \
+                if prev is not None and cur.collapsed and prev.circular \
                         and prev.per_bed == cur.width:
                     _link(state, node, prev, cur)
                 elif prev is not None:
@@ -347,7 +349,7 @@ def _collapsed(state: _State, idx: int, w: int, off: int, gauge: int, first: boo
     if first:  # end on the left, where the tube's first course begins
         needle = needle[::-1]
     course = state.acc.course(idx, np.zeros(w, np.int8), needle, False, "interface", gauge)
-    course.collapsed = True  # type: ignore[attr-defined]
+    course.collapsed = True
     return course
 
 
@@ -366,9 +368,9 @@ def _zigzag(state: _State, idx: int, w: int, off: int, gauge: int, ret: bool) ->
 def _link(state: _State, node: PrimNode, a: Course, b: Course) -> None:
     """Wales between consecutive courses of one sheet or tube."""
     acc = state.acc
-    if (getattr(b, "collapsed", False) and a.circular) or \
-            (getattr(a, "collapsed", False) and b.circular):
-        full, flat = (a, b) if getattr(b, "collapsed", False) else (b, a)
+    if (b.collapsed and a.circular) or \
+            (a.collapsed and b.circular):
+        full, flat = (a, b) if b.collapsed else (b, a)
         for bed in (FRONT, BACK):
             half = full.half(bed)
             if half.size != flat.width:
@@ -556,8 +558,6 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
         return
     direction, walk, reached = best
     row = first if reached == first[0] else first[::-1]
-    if lead and len(row) > 1 and lead[-1] == row[0]:
-        pass  # the row starts where the lead course ends and turns back along it
     seqs.append(walk + row)
     d = 1 if len(row) < 2 else (1 if step(row[0], 1) == row[1] else -1)
     for nxt in short[1:]:
@@ -713,7 +713,7 @@ def _split(state: _State, node: PrimNode, visit: NodeVisit) -> None:
         for path, (off, w, tub, back) in zip(paths, layout, strict=True):
             side, needle = _branch_positions(off, w, tub, back, base_per_bed)
             br = acc.course(idx, side, needle, tub, "interface", gauge)
-            _wales_by_position(acc, frame, br)
+            _grid_wales(acc, frame, br)
             acc.name(br, ItfId(node.name, path))
             state.exit_course[ItfId(node.name, path)] = br
         state.yarn_end[node.name] = state.exit_course[ItfId(node.name, paths[0])]
@@ -796,7 +796,3 @@ def _frame(base: Course, per_bed: int, tubular: bool) -> Course:
     ids = _in_yarn_order(base, tubular)
     side, needle = ring(per_bed, tubular)
     return Course(base.id, ids, side, needle, tubular)
-
-
-def _wales_by_position(acc: _Acc, a: Course, b: Course) -> None:
-    _grid_wales(acc, a, b)
