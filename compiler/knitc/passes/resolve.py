@@ -435,22 +435,10 @@ class _Resolver:
     def _node(self, decl: ast.NodeDecl, machine: sk.Machine) -> sk.PrimNode:
         name, kind = decl.name.name, decl.kind
         schema = sk.NODE_PROPS[kind]
-        seen: dict[str, ast.Prop] = {}
-        for p in decl.props:
-            pname = p.name.name
-            if pname not in schema:
-                hint = _suggest(pname, schema)
-                if pname == "type" and kind == "tube":
-                    hint = "a tube is always a cylinder; use `sheet` with `type:` otherwise"
-                self.diags.error("E307",
-                                 f"a {kind} has no property `{pname}`", p.name.span,
-                                 hint=hint or "properties: " + ", ".join(schema))
-                continue
-            if pname in seen:
-                self.diags.error("E308", f"property `{pname}` is set twice", p.name.span,
-                                 notes=[Note("first set here", seen[pname].name.span)])
-                continue
-            seen[pname] = p
+        hint = None
+        if kind == "tube" and any(p.name.name == "type" for p in decl.props):
+            hint = "a tube is always a cylinder; use `sheet` with `type:` otherwise"
+        seen = self._unique_props(decl.props, schema, f"a {kind}", hint)
         props: dict[str, Value] = {}
         for pname in schema:
             if pname in seen:
@@ -590,26 +578,31 @@ class _Resolver:
     def _props_block(self, props: tuple[ast.Prop, ...], schema: dict[str, sk.PropSpec],
                      what: str) -> dict[str, Value]:
         out: dict[str, Value] = {}
-        seen: dict[str, ast.Prop] = {}
         ev = Evaluator(self._param, self._prop_outside)
-        for p in props:
-            name = p.name.name
-            spec = schema.get(name)
-            if spec is None:
-                self.diags.error("E307", f"{what} has no property `{name}`", p.name.span,
-                                 hint=_suggest(name, schema)
-                                 or "properties: " + ", ".join(schema))
-                continue
-            if name in seen:
-                self.diags.error("E308", f"property `{name}` is set twice", p.name.span,
-                                 notes=[Note("first set here", seen[name].name.span)])
-                continue
-            seen[name] = p
+        for name, p in self._unique_props(props, schema, what).items():
             try:
-                out[name] = self._check(spec, ev.eval(p.value), p, f"`{name}`")
+                out[name] = self._check(schema[name], ev.eval(p.value), p, f"`{name}`")
             except EvalError as err:
                 self._report(err)
         return out
+
+    def _unique_props(self, props, schema: dict[str, sk.PropSpec], what: str,
+                      type_hint: str | None = None) -> dict[str, ast.Prop]:
+        """The properties of a block by name; unknown (E307) and repeated (E308) ones are
+        reported and left out."""
+        seen: dict[str, ast.Prop] = {}
+        for p in props:
+            name = p.name.name
+            if name not in schema:
+                hint = type_hint if name == "type" and type_hint else _suggest(name, schema)
+                self.diags.error("E307", f"{what} has no property `{name}`", p.name.span,
+                                 hint=hint or "properties: " + ", ".join(schema))
+            elif name in seen:
+                self.diags.error("E308", f"property `{name}` is set twice", p.name.span,
+                                 notes=[Note("first set here", seen[name].name.span)])
+            else:
+                seen[name] = p
+        return seen
 
     def _prop_outside(self, node: str | None, prop: str, span: Span) -> Value:
         if node is None:

@@ -95,20 +95,17 @@ def trace_rules(g: StitchGraph, passes: int = 2,
     done_in_course = np.zeros(g.n_courses, np.int64)
     out_stitch: list[int] = []
     out_yarn: list[int] = []
-    out_dir: list[int] = []
     out_flags: list[int] = []
     next_course = 0  # lowest course that may still hold unfinished stitches
 
     def ready(s: int) -> bool:
         return pending[g.course[s]] == 0 and visits[s] < passes
 
-    def knit(s: int, yarn: int, o: int, flag: int = 0) -> None:
+    def knit(s: int, yarn: int, flag: int = 0) -> None:
         visits[s] += 1
         out_stitch.append(s)
         out_yarn.append(yarn)
         out_flags.append(flag)
-        side_dir = 1 if g.side[s] == 0 else -1
-        out_dir.append(o * side_dir if g.course_circular[g.course[s]] else o)
         if visits[s] == passes:
             done_in_course[g.course[s]] += 1
             for child in g.wale_next[s]:
@@ -150,7 +147,7 @@ def trace_rules(g: StitchGraph, passes: int = 2,
             if out_stitch and out_yarn[-1] == yarn - 1:
                 out_flags[-1] |= tr.END
             o = orient(start)
-            knit(start, yarn, o, tr.START)
+            knit(start, yarn, tr.START)
             remaining -= 1
             cur = start
             continue
@@ -206,7 +203,7 @@ def trace_rules(g: StitchGraph, passes: int = 2,
                 continue
             flag |= tr.JUMP
         y = yarn if yarn_of is None else yarn_of(nxt)
-        knit(nxt, y, o, flag)
+        knit(nxt, y, flag)
         remaining -= 1
         cur = nxt
     if out_flags:
