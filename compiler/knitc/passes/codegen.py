@@ -89,7 +89,8 @@ class _Gen:
             self.loops[pos] = 1
         elif kind == "tuck":
             self.loops[pos] += 1
-        self._place(stitch, pos)
+        if stitch >= 0:  # cast-on loops belong to no stitch of the graph: count them only
+            self._place(stitch, pos)
 
     def _place(self, stitch: int, pos: tuple[str, int]) -> None:
         old = self.where.get(stitch)
@@ -97,12 +98,6 @@ class _Gen:
             self.at[old].discard(stitch)
         self.where[stitch] = pos
         self.at[pos].add(stitch)
-
-    def forget(self, stitch: int) -> None:
-        """Stop tracking a loop that belongs to no stitch of the graph (cast-on tucks)."""
-        pos = self.where.pop(stitch, None)
-        if pos is not None:
-            self.at[pos].discard(stitch)
 
     def drop(self, pos: tuple[str, int], stitch: int) -> None:
         self.prog.drop(f"{pos[0]}{pos[1]}", stitch=stitch, span=self.span(stitch))
@@ -263,18 +258,15 @@ def _cast_on(gen: _Gen, ids: np.ndarray, carrier: int) -> None:
     first, second = order[0::2], order[1::2]
     for s in first:
         gen.stitch_op("tuck", -1, gen.pos(s), -1, carrier)
-        gen.forget(-1)
     gen.prog.releasehook((carrier,))
     for s in reversed(second):
         gen.stitch_op("tuck", 1, gen.pos(s), -1, carrier)
-        gen.forget(-1)
     # The yarn is now at the right. If the first course starts at its left end, knit one
     # plain leftward pass over the tucks so the yarn is where that course begins.
     start = gen.pos(int(ids[0]))
     if start[1] < gen.pos(order[0])[1]:
         for s in order:
             gen.stitch_op("knit", -1, gen.pos(s), -1, carrier)
-            gen.forget(-1)
 
 
 def _cast_off(gen: _Gen, ends: list[int], carrier: int, d: int) -> None:
