@@ -11,6 +11,7 @@ import pytest
 
 import knitc
 from knitc.cli import main
+from oracle import assert_clean, run_oracle
 
 
 def _has_module_fmt() -> bool:
@@ -298,6 +299,8 @@ def test_compile_to_knitout_writes_the_file(capsys, write, tmp_path):
     assert code == 0, err
     text = out_path.read_text()
     assert text.startswith(";!knitout-2\n") and "\nknit " in text
+    [report] = run_oracle([out_path])
+    assert_clean(report)
 
 
 # ---- fmt ---------------------------------------------------------------------------------------

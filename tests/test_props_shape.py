@@ -76,22 +76,6 @@ def _sides_disagree(skel: Skeleton) -> bool:
     return False
 
 
-def _zigzag_course_into_joint(skel: Skeleton) -> bool:
-    """A one-course tube closed by `zigzag`/`zigzagreturn` at one end and connected to a
-    joint at the other: the joint reads the zigzag course as a ring."""
-    partner = {c.a: c.b for c in skel.connections} | {c.b: c.a for c in skel.connections}
-    for node in skel.nodes.values():
-        if node.kind not in ("sheet", "tube") or int(node.props["length"]) != 1:
-            continue
-        for end, other in (("bottom", "top"), ("top", "bottom")):
-            itf = skel.interfaces[ItfId(node.name, end)]
-            nb = partner.get(ItfId(node.name, other))
-            if itf.state == "closed" and itf.closing in ("zigzag", "zigzagreturn") and \
-                    nb is not None and skel.nodes[nb.node].kind == "joint":
-                return True
-    return False
-
-
 def _known_bug(prog: Program, exc: BaseException) -> str | None:
     """Which known shape-pass crash this is, or None (see the module docstring)."""
     frames = traceback.extract_tb(exc.__traceback__)
@@ -103,8 +87,6 @@ def _known_bug(prog: Program, exc: BaseException) -> str | None:
         return None
     if _sides_disagree(skel):
         return "interfaces around a split disagree on their sides"
-    if _zigzag_course_into_joint(skel):
-        return "one-course zigzag-closed tube into a joint"
     return None
 
 
