@@ -35,19 +35,17 @@ regenerate.
 
 from __future__ import annotations
 
-import difflib
-import os
 import re
 import shlex
 from pathlib import Path
 
 import pytest
 
+from golden import UPDATE, assert_golden
 from knitc.cli import main
 
 GOLDEN = Path(__file__).resolve().parent / "golden" / "diagnostics"
 CASES = sorted(GOLDEN.glob("*.knit"))
-UPDATE = os.environ.get("KNITC_UPDATE_GOLDEN") == "1"
 
 KNOWN_INTERNAL_ERRORS: dict[str, str] = {}
 """Cases that crash knitc today. They have no `.expected` file yet; they are strict xfails,
@@ -127,25 +125,6 @@ def test_golden_diagnostics(case: Path, monkeypatch, capsys):
     actual = f"{stderr}exit: {code}\n"
     expected_path = case.with_suffix(".expected")
     _check_well_formed(stderr, code)  # never write a malformed output as the expectation
-    if UPDATE:
-        expected_path.write_text(actual, encoding="utf-8")
-        return
-    if case.stem in KNOWN_INTERNAL_ERRORS and not expected_path.exists():
+    if case.stem in KNOWN_INTERNAL_ERRORS and not expected_path.exists() and not UPDATE:
         return  # fixed: the strict xfail now reports XPASS, asking for an .expected file
-    assert expected_path.exists(), (
-        f"{expected_path.name} is missing; create it with KNITC_UPDATE_GOLDEN=1"
-    )
-    expected = expected_path.read_text(encoding="utf-8")
-    if actual != expected:
-        diff = "".join(
-            difflib.unified_diff(
-                expected.splitlines(keepends=True),
-                actual.splitlines(keepends=True),
-                fromfile=f"{expected_path.name} (expected)",
-                tofile=f"{case.name} (actual)",
-            )
-        )
-        pytest.fail(
-            f"diagnostics of {case.name} changed (KNITC_UPDATE_GOLDEN=1 to accept):\n{diff}",
-            pytrace=False,
-        )
+    assert_golden(expected_path, actual, f"diagnostics of {case.name}")

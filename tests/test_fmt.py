@@ -8,7 +8,6 @@ KNITC_UPDATE_GOLDEN=1 to rewrite the `.expected` files after a deliberate style 
 
 from __future__ import annotations
 
-import difflib
 import os
 import re
 from collections import Counter
@@ -18,6 +17,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from golden import assert_golden
 from knitc.syntax import ast
 from knitc.syntax.fmt import format_expr, format_layer_stmt, format_module
 from knitc.syntax.parser import parse
@@ -318,22 +318,9 @@ def test_golden_files_exist():
 def test_golden(path: Path):
     expected_path = path.with_suffix(".expected")
     actual = assert_stable(path.read_text(encoding="utf-8"))
-    if os.environ.get("KNITC_UPDATE_GOLDEN"):
-        expected_path.write_text(actual, encoding="utf-8")
-    expected = expected_path.read_text(encoding="utf-8")
-    if actual != expected:
-        diff = "".join(
-            difflib.unified_diff(
-                expected.splitlines(keepends=True),
-                actual.splitlines(keepends=True),
-                fromfile=str(expected_path),
-                tofile=f"format({path.name})",
-            )
-        )
-        pytest.fail(
-            f"formatted {path.name} differs from {expected_path.name}:\n{diff}", pytrace=False
-        )
+    assert_golden(expected_path, actual, f"format({path.name})")
     # The expected output is itself canonical.
+    expected = expected_path.read_text(encoding="utf-8")
     assert fmt(expected) == expected
 
 

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from golden import assert_golden
 from knitc.cli import main
 from knitc.driver import compile_file, compile_source, emit_json
 from knitc.ir import stitch_graph as sg
@@ -37,7 +38,6 @@ ROOT = Path(__file__).resolve().parent.parent
 KNITSKEL = ROOT / "examples" / "knitskel"
 FIXTURES = Path(__file__).resolve().parent / "fixtures" / "knitskel"
 GOLDEN = Path(__file__).resolve().parent / "golden" / "stitch_graph"
-UPDATE = os.environ.get("KNITC_UPDATE_GOLDEN") == "1"
 FRONT, BACK = 0, 1
 
 
@@ -580,10 +580,7 @@ def test_golden_stitch_graph(name, monkeypatch, capsys):
     assert main(["--emit", "stitch-graph", f"{name}.knit"]) == 0
     out = capsys.readouterr().out
     expected = GOLDEN / f"{name}.json"
-    if UPDATE:
-        expected.write_text(out, encoding="utf-8")
-    assert expected.exists(), f"no {expected.name}: run with KNITC_UPDATE_GOLDEN=1, then review"
-    assert out == expected.read_text(encoding="utf-8")
+    assert_golden(expected, out, f"stitch graph of {name}.knit")
     g = compile_file(f"{name}.knit", until="stitch-graph").graph
     assert sg.verify(g) == []
 
