@@ -59,6 +59,13 @@ def _neighbours(g: StitchGraph, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return same | course | wale
 
 
+def neighbours(g: StitchGraph, a: int, b: int) -> bool:
+    """Stitch b is stitch a, or its course or wale neighbour: a step that needs no
+    justification (the scalar form of the check `verify` makes over whole arrays)."""
+    return bool(a == b or g.cnext[a] == b or g.cprev[a] == b or b in g.wale_next[a]
+                or b in g.wale_prev[a])
+
+
 def near(g: StitchGraph, a: int, b: int) -> bool:
     """A justified one-step jump from stitch a to b: a diagonal onto the next course (a
     spiral, or a wale child of a course neighbour), or the adjacent needle of the same bed

@@ -27,15 +27,6 @@ from knitc.ir.stitch_graph import COURSE_KINDS, StitchGraph
 _TURNING = (COURSE_KINDS.index("short_row"), COURSE_KINDS.index("continuity"))
 
 
-def _adjacent(g: StitchGraph, a: int, b: int) -> bool:
-    """Course or wale neighbours, or an adjacent needle of the same node (a justified jump)."""
-    if a == b or g.cnext[a] == b or g.cprev[a] == b or b in g.wale_next[a] or \
-            b in g.wale_prev[a]:
-        return True
-    return False
-
-
-_near = tr.near
 
 
 def trace_courses(g: StitchGraph) -> tr.Trace:
@@ -53,12 +44,12 @@ def trace_courses(g: StitchGraph) -> tr.Trace:
         chosen = -1
         jump = False
         for y in range(len(last_of) - 1, -1, -1):  # most recent yarn first
-            if _adjacent(g, last_of[y], first):
+            if tr.neighbours(g, last_of[y], first):
                 chosen = y
                 break
         if chosen < 0:
             for y in range(len(last_of) - 1, -1, -1):
-                if _near(g, last_of[y], first):
+                if tr.near(g, last_of[y], first):
                     chosen, jump = y, True
                     break
         if chosen < 0:
@@ -197,8 +188,8 @@ def trace_rules(g: StitchGraph, passes: int = 2,
             out_flags[-1] |= tr.END
             cur = -1
             continue
-        if not _adjacent(g, cur, nxt):
-            if not _near(g, cur, nxt):  # too far to carry the yarn: end it (R6)
+        if not tr.neighbours(g, cur, nxt):
+            if not tr.near(g, cur, nxt):  # too far to carry the yarn: end it (R6)
                 cur = -1
                 continue
             flag |= tr.JUMP
