@@ -96,6 +96,7 @@ def compile_source(text: str, path: str, *, defines: list[str] = (), until: str 
     program = generate(graph, lay, trace, machine=machine, carriers=m.carriers, diags=diags)
     if program is None:
         return _finish(result, werror)
+    mp.check(program)  # the verifier between passes: a violation is a knitc bug
     add_to_diagnostics(simulate(program), program, diags)
     result.program, result.stage_reached = program, "machine"
     return _finish(result, werror)

@@ -228,12 +228,9 @@ class Skeleton:
 
     def components(self) -> list[list[str]]:
         """Node names of each connected garment, in declaration order."""
-        g = nx.Graph()
-        g.add_nodes_from(self.nodes)
-        for c in self.connections:
-            g.add_edge(c.a.node, c.b.node)
         order = {n: i for i, n in enumerate(self.nodes)}
-        comps = [sorted(c, key=order.__getitem__) for c in nx.connected_components(g)]
+        comps = [sorted((n for n in c if n in order), key=order.__getitem__)
+                 for c in nx.connected_components(self.graph())]
         return sorted(comps, key=lambda c: order[c[0]])
 
 
