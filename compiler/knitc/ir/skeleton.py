@@ -316,6 +316,25 @@ def infer_sizes(skel: Skeleton) -> None:
                         set_(p, _width_at(node, t) * sides, sides)
 
 
+def binding(skel: Skeleton, a: ItfId, b: ItfId) -> str:
+    """How a connection joins its two courses (thesis ch. 5.2, the original's rules):
+    `merge` (one shared course), `close` (the larger, tubular side is closed 2:1, then
+    merged), `gauge` (different gauges with equal counts or equal needle spans), `spread`
+    (anything else: up to two wales per stitch, extras without), or `unknown` sizes.
+    The verifier warns from it and the shape pass builds from it."""
+    ia, ib = skel.interfaces[a], skel.interfaces[b]
+    if ia.size is None or ib.size is None:
+        return "unknown"
+    ga = 2 if skel.nodes[a.node].props.get("gauge") == "half" else 1
+    gb = 2 if skel.nodes[b.node].props.get("gauge") == "half" else 1
+    if ga != gb:
+        return "gauge" if ia.size == ib.size or ia.size * ga == ib.size * gb else "spread"
+    if ia.size == ib.size:
+        return "merge"
+    big, small = (ia, ib) if ia.size > ib.size else (ib, ia)
+    return "close" if big.size == 2 * small.size and big.sides == 2 else "spread"
+
+
 # ---- verifier -----------------------------------------------------------------------------
 
 def verify(skel: Skeleton, diags: Diagnostics) -> None:
@@ -354,27 +373,20 @@ def verify(skel: Skeleton, diags: Diagnostics) -> None:
             continue
         if c.a.node in skel.tainted or c.b.node in skel.tainted:
             continue
-        # Across a gauge change the courses are bound by the needles they span (the
-        # original's rule): 50 half-gauge stitches meet 100 full-gauge ones, spread 1:2.
-        ga = 2 if skel.nodes[c.a.node].props.get("gauge") == "half" else 1
-        gb = 2 if skel.nodes[c.b.node].props.get("gauge") == "half" else 1
-        if ga != gb:
-            # Equal stitch counts are bound stitch for stitch (the needles are repacked);
-            # equal needle spans are spread, as the original did.
-            if a.size != b.size and a.size * ga != b.size * gb:
-                diags.warning("W502", f"width mismatch across a gauge change: `{a.id}` spans "
-                              f"{a.size * ga} needles, `{b.id}` spans {b.size * gb}", c.span,
-                              hint="across a gauge change, a half-gauge side needs half the "
-                                   "stitches of the full-gauge side")
-            continue
-        if a.size == b.size:
-            continue
-        big, small = (a, b) if a.size > b.size else (b, a)
-        if big.size == 2 * small.size and big.sides == 2:
+        kind = binding(skel, c.a, c.b)
+        if kind == "spread" and skel.nodes[c.a.node].props.get("gauge") != \
+                skel.nodes[c.b.node].props.get("gauge"):
+            diags.warning("W502", f"width mismatch across a gauge change: `{a.id}` and "
+                          f"`{b.id}` have neither the same stitches ({a.size}, {b.size}) nor "
+                          "the same needle span", c.span,
+                          hint="across a gauge change, a half-gauge side needs the same "
+                               "stitches or half those of the full-gauge side")
+        elif kind == "close":
+            big, small = (a, b) if a.size > b.size else (b, a)
             diags.warning("W501", f"`{big.id}` has {big.size} stitches and `{small.id}` has "
                           f"{small.size}: the tube is closed 2:1 before the merge", c.span,
                           hint="make both sides the same size to merge them stitch by stitch")
-        else:
+        elif kind == "spread":
             diags.warning("W502", f"size mismatch: `{a.id}` has {a.size} stitches, `{b.id}` "
                           f"has {b.size}; the extra stitches are spread without wales", c.span,
                           hint="make both sides the same size, or put a sheet with a width "

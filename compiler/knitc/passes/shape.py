@@ -30,7 +30,7 @@ import numpy as np
 from knitc.diagnostics import Diagnostics, Note
 from knitc.evaluate import EvalError, Profile, round_half_up
 from knitc.ir import stitch_graph as sg
-from knitc.ir.skeleton import ItfId, PrimNode, Skeleton
+from knitc.ir.skeleton import ItfId, PrimNode, Skeleton, binding
 from knitc.passes.flow import NodeVisit, schedule_nodes
 from knitc.passes.shapers import MappingError, wales_between
 from knitc.passes.shapers import shape as shaper_map
@@ -280,12 +280,10 @@ def _sheet(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     # A tube whose exit meets a course of half its size (same gauge) is closed, then merged
     # (the original's 2:1 rule).
     partner_out = state.partner.get(ItfId(node.name, exit_))
-    close_out = itf_out.state == "closed"
-    if partner_out is not None and tubular and itf_out.size:
-        other = skel.interfaces[partner_out]
-        same_gauge = skel.nodes[partner_out.node].props["gauge"] == node.props["gauge"]
-        close_out = close_out or (same_gauge and other.size is not None
-                                  and 2 * other.size == itf_out.size)
+    close_out = itf_out.state == "closed" or (
+        partner_out is not None and tubular
+        and binding(skel, ItfId(node.name, exit_), partner_out) == "close"
+        and itf_out.size > skel.interfaces[partner_out].size)
     if close_out and tubular and length > 1:
         widths[-1] = widths[-2]
     max_w = max(widths)
