@@ -1,8 +1,9 @@
 """The pipeline, readable in one place.
 
     source ──parse──▶ AST ──resolve + verify──▶ Skeleton ──shape──▶ StitchGraph ──trace──▶ Trace
-      ──layout + codegen──▶ MachineProgram ──simulate──▶ diagnostics;  ──emit──▶ Knitout
-    (patterning, slicing/schedule optimisation and DAT come later)
+      ──slice──▶ Slices ──schedule──▶ Schedule;  Trace ──layout + codegen──▶ MachineProgram
+      ──simulate──▶ diagnostics;  ──emit──▶ Knitout
+    (patterning, code generation from the schedule and DAT come later)
 
 Each stage is a pure function of the previous IR plus a `Diagnostics` collection; the driver
 stops after the first stage that reported errors, because later stages would only repeat
@@ -18,23 +19,27 @@ from typing import Any
 
 from knitc.diagnostics import Diagnostics
 from knitc.ir import machine as mp
+from knitc.ir import schedule as sc
 from knitc.ir import skeleton as sk
+from knitc.ir import slices as sl
 from knitc.ir import stitch_graph as sg
 from knitc.ir import trace as tr
 from knitc.passes.codegen import generate
 from knitc.passes.layout import layout
 from knitc.passes.resolve import parse_define, resolve
+from knitc.passes.schedule import schedule
 from knitc.passes.shape import build_stitch_graph
 from knitc.passes.simulate import add_to_diagnostics, simulate
+from knitc.passes.slice import slice_trace
 from knitc.passes.trace import trace_courses
 from knitc.source import SourceFile
 from knitc.syntax import ast
 from knitc.syntax.parser import parse_source
 
-STAGES = ("ast", "skeleton", "stitch-graph", "trace", "machine")
+STAGES = ("ast", "skeleton", "stitch-graph", "trace", "slices", "schedule", "machine")
 """IRs that `--emit` can print today, in pipeline order."""
 
-PLANNED_STAGES = ("slices", "schedule")
+PLANNED_STAGES: tuple[str, ...] = ()
 
 
 @dataclass
@@ -44,6 +49,8 @@ class Result:
     skeleton: sk.Skeleton | None = None
     graph: sg.StitchGraph | None = None
     trace: tr.Trace | None = None
+    slices: sl.Slices | None = None
+    schedule: sc.Schedule | None = None
     program: mp.MachineProgram | None = None
     stage_reached: str = "none"
     defines: dict[str, ast.Node] = field(default_factory=dict)
@@ -89,6 +96,20 @@ def compile_source(text: str, path: str, *, defines: list[str] = (), until: str 
     if until == "trace":
         return _finish(result, werror)
     m = skel.machine
+    limits = {"flat_limit": m.slice_shaping, "tube_limit": m.slice_shaping} \
+        if m.slice_shaping else {}
+    slices = slice_trace(graph, trace, **limits)
+    sl.check(graph, trace, slices)  # the verifier between passes: a violation is a knitc bug
+    result.slices, result.stage_reached = slices, "slices"
+    if until == "slices":
+        return _finish(result, werror)
+    sched = schedule(graph, slices, needles=m.needles, diags=diags)
+    if sched is None:
+        return _finish(result, werror)
+    sc.check(graph, sched)  # the verifier between passes: a violation is a knitc bug
+    result.schedule, result.stage_reached = sched, "schedule"
+    if until == "schedule":
+        return _finish(result, werror)
     machine = mp.Machine(name=m.model, needles=m.needles, racking_limit=m.racking)
     lay = layout(graph, m.needles, diags)
     if lay is None:
@@ -135,6 +156,12 @@ def emit_json(result: Result, stage: str) -> str:
     elif stage == "trace":
         assert result.graph is not None and result.trace is not None
         obj = tr.to_json(result.graph, result.trace)
+    elif stage == "slices":
+        assert result.graph is not None and result.slices is not None
+        obj = sl.to_json(result.graph, result.slices)
+    elif stage == "schedule":
+        assert result.graph is not None and result.schedule is not None
+        obj = sc.to_json(result.graph, result.schedule)
     elif stage == "machine":
         assert result.program is not None
         obj = mp.to_json(result.program)

@@ -55,6 +55,9 @@ MACHINE_PROPS: dict[str, PropSpec] = {
     "increase": PropSpec("choice", "kickback", INCREASES, doc="default increase type"),
     "cast_on": PropSpec("choice", "interlock", CAST_ONS, doc="default cast-on"),
     "cast_off": PropSpec("choice", "pickup", CAST_OFFS, doc="default cast-off"),
+    "slice_shaping": PropSpec("int", 0, min=0, max=1000,
+                              doc="increases + decreases knitted per bed slice "
+                                  "(0 = 2 on a flat slice, 4 on a tubular one)"),
 }
 
 COMMON_PROPS: dict[str, PropSpec] = {
@@ -118,6 +121,8 @@ class Machine:
     increase: str
     cast_on: str
     cast_off: str
+    slice_shaping: int = 0
+    """Shaping allowed per bed slice (ch. 6.7.1); 0 = the thesis's 2 flat, 4 tubular."""
     span: Span | None = None
 
 
