@@ -283,7 +283,7 @@ def test_plain_compile_without_emit(capsys, write):
     assert code == 0 and out == "" and err == ""
 
 
-@pytest.mark.parametrize("argv", [["--emit", "schedule"], ["-o", "x.dat"], ["--target", "dat"]])
+@pytest.mark.parametrize("argv", [["-o", "x.dat"], ["--target", "dat"]])
 def test_not_implemented_stages_fail_cleanly(capsys, write, tmp_path, argv):
     argv = [a if a != "x.dat" else str(tmp_path / "x.dat") for a in argv]
     code, out, err = run(capsys, *argv, write(GOOD))

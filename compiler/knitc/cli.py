@@ -51,7 +51,8 @@ def _main_parser() -> argparse.ArgumentParser:
                    help="output file (default: standard output for --emit)")
     p.add_argument("--emit", metavar="IR", choices=STAGES + PLANNED_STAGES,
                    help="print one intermediate representation as JSON: "
-                        + ", ".join(STAGES) + " (later: " + ", ".join(PLANNED_STAGES) + ")")
+                        + ", ".join(STAGES)
+                        + (f" (later: {', '.join(PLANNED_STAGES)})" if PLANNED_STAGES else ""))
     p.add_argument("--target", choices=["knitout", "dat"],
                    help="machine format (default: from the -o extension)")
     p.add_argument("--version", action="version", version=f"knitc {__version__}")
