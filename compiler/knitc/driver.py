@@ -24,7 +24,7 @@ from knitc.ir import skeleton as sk
 from knitc.ir import slices as sl
 from knitc.ir import stitch_graph as sg
 from knitc.ir import trace as tr
-from knitc.passes.codegen import generate
+from knitc.passes.codegen import generate, options_from_skeleton
 from knitc.passes.layout import layout
 from knitc.passes.resolve import parse_define, resolve
 from knitc.passes.schedule import schedule
@@ -114,7 +114,8 @@ def compile_source(text: str, path: str, *, defines: list[str] = (), until: str 
     lay = layout(graph, m.needles, diags)
     if lay is None:
         return _finish(result, werror)
-    program = generate(graph, lay, trace, machine=machine, carriers=m.carriers, diags=diags)
+    program = generate(graph, lay, trace, machine=machine, carriers=m.carriers, diags=diags,
+                       options=options_from_skeleton(skel))
     if program is None:
         return _finish(result, werror)
     mp.check(program)  # the verifier between passes: a violation is a knitc bug

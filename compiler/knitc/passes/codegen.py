@@ -1,41 +1,101 @@
 """Code generation: traced yarn + layout → machine operations (thesis ch. 6.8).
 
-Courses are knitted in trace order. Before each course, every loop its stitches knit
-through is moved from where it is to the stitch's needle (shaping); then the course is
-knitted in the trace's direction, tucking where a needle is still empty (an increase),
-and stitches without a next wale are cast off once their course is done.
+Courses are knitted in trace order; each course is one slice of ch. 6.8 and runs the code
+passes of ch. 6.8.1 in order:
 
-Passes, as in ch. 6.8.1:
-- yarn start: `inhook`, the first cast-on pass going leftward from the course's rightmost
-  needle (the hook sits right of the first stitch), `releasehook` after it; a yarn that
-  starts on live loops (a branch knitted with its own yarn) is brought in with `in`;
-- cast-on: alternate tucks leftward then rightward, so every needle holds one loop before
-  the first course is knitted through them;
-- shaping: loops changing bed are transferred directly at the racking that aligns them;
-  loops shifting along their bed are parked on the opposite bed's sliders and put back
-  one racking at a time (so no loop lands on a needle another loop has not left yet);
-- cast-off: a chain bind-off along the stitches that end (each loop knitted, moved onto
-  its neighbour and knitted together with it), the last loop dropped;
-- yarn end: `outhook`.
+1. shaping: every loop the course knits through is moved to its stitch's needle
+   (`transfers.move`); an increase parent's loop goes to its nearer child. A carrier left
+   inside the region the transfers span is first kicked out of it with a `miss`, so its
+   yarn is not caught by the moving loops (ch. 6.8.2);
+2. yarn start and cast-on (`casting`): a yarn that starts on empty needles is hooked in,
+   caught and released, and a course of empty needles is cast on as its interface asks
+   (`cast_on`, else the machine's); a yarn that starts on live loops is brought in with `in`;
+3. action pass: each stitch's action, as pre / main / post steps (the thesis's modular action
+   pass; user actions will plug in here): a knit through the loops on its needle, a tuck on
+   an empty needle that no loop reaches (a partial cast-on, or the first course of
+   `cast_on: none`), and for increases the node's `increase`: `kickback` (the child without
+   its parent's loop is a tuck in the opposite direction, so the new loop is wrapped around
+   its needle rather than laid in as a yarn-over) or `split` (the parent's loop is split:
+   a new loop through it on its needle while the old loop goes to the facing needle and
+   stands for the other child, which the carriage misses; knitsketching's SPLIT + MISS;
+   the split's post step transfers the old loop on to the other child's needle);
+4. cast-off of the stitches that end, as their interface asks (`cast_off`), then the catching
+   tucks of a new yarn are dropped;
+5. yarn end: the bind-off's tail, a kickback `miss` out of the fabric, `outhook`.
 
-Every operation keeps the stitch it came from; the span is the stitch's declaration.
+Each kind of pass sets its `x-stitch-number` (`casting.StitchNumbers`); short rows press
+the fabric (`x-presser-mode auto`). Every operation keeps the stitch it came from; the span
+is the stitch's declaration.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections import Counter
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from knitc.diagnostics import Diagnostics
+from knitc.ir import skeleton as sk
 from knitc.ir import trace as tr
 from knitc.ir.machine import Machine, MachineProgram
-from knitc.ir.stitch_graph import StitchGraph
+from knitc.ir.stitch_graph import COURSE_KINDS, StitchGraph
+from knitc.passes import casting as cast
 from knitc.passes.bed import BEDS, Bed, Pos, Unsupported
-from knitc.passes.casting import cast_off, cast_on
 from knitc.passes.layout import Layout
 from knitc.passes.transfers import move
+from knitc.source import Span
 
+SHORT_ROW = COURSE_KINDS.index("short_row")
+
+
+# ---- options ----------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class CodegenOptions:
+    """The fabrication choices code generation follows, resolved from the skeleton.
+
+    An interface's own `cast_on` / `cast_off` wins over the machine's; `auto` interfaces are
+    simply absent from the maps. Courses carry interface names (`StitchGraph.course_names`),
+    which is how a course finds its setting.
+    """
+
+    cast_on: str = "interlock"
+    cast_off: str = "pickup"
+    increase: str = "kickback"
+    interface_cast_on: Mapping[str, str] = field(default_factory=dict)
+    interface_cast_off: Mapping[str, str] = field(default_factory=dict)
+    interface_span: Mapping[str, Span] = field(default_factory=dict)
+    node_increase: Mapping[str, str] = field(default_factory=dict)
+    numbers: cast.StitchNumbers = cast.STITCH_NUMBERS
+
+    def cast_on_for(self, names: tuple[str, ...]) -> str:
+        return next((self.interface_cast_on[n] for n in names if n in self.interface_cast_on),
+                    self.cast_on)
+
+    def cast_off_for(self, names: tuple[str, ...]) -> str:
+        return next((self.interface_cast_off[n] for n in names
+                     if n in self.interface_cast_off), self.cast_off)
+
+    def increase_for(self, node: str) -> str:
+        inc = self.node_increase.get(node, "auto")
+        return self.increase if inc == "auto" else inc
+
+
+def options_from_skeleton(skel: sk.Skeleton) -> CodegenOptions:
+    m = skel.machine
+    itfs = skel.interfaces.values()
+    return CodegenOptions(
+        cast_on=m.cast_on, cast_off=m.cast_off, increase=m.increase,
+        interface_cast_on={str(i.id): i.cast_on for i in itfs if i.cast_on != "auto"},
+        interface_cast_off={str(i.id): i.cast_off for i in itfs if i.cast_off != "auto"},
+        interface_span={str(i.id): i.span for i in itfs if i.span is not None},
+        node_increase={name: str(n.props.get("increase", "auto"))
+                       for name, n in skel.nodes.items()})
+
+
+# ---- state ------------------------------------------------------------------------------------
 
 @dataclass
 class _Gen:
@@ -44,19 +104,32 @@ class _Gen:
     t: tr.Trace
     carriers: tuple[int, ...]
     bed: Bed
+    opts: CodegenOptions
+    diags: Diagnostics
     where_span: object = None
     """The span of the course being generated, for diagnostics."""
+    carrier_of: dict[int, int] = field(default_factory=dict)
+    """Yarns in action -> their carrier."""
+    presser: str = "off"
+    split_fallbacks: Counter = field(default_factory=Counter)
+    """Nodes -> split increases that had to use a kickback (no free needle to split to)."""
+    warned: set[str] = field(default_factory=set)
 
     def pos(self, s: int) -> Pos:
         return BEDS[int(self.lay.bed[s])], int(self.lay.needle[s])
 
+    def ctx(self, carrier: int, s: int) -> cast.Ctx:
+        return cast.Ctx(self.bed, carrier, self.opts.numbers, self.bed.span(int(s)))
+
 
 def generate(g: StitchGraph, lay: Layout, t: tr.Trace, *, machine: Machine,
-             carriers: tuple[int, ...], diags: Diagnostics) -> MachineProgram | None:
+             carriers: tuple[int, ...], diags: Diagnostics,
+             options: CodegenOptions | None = None) -> MachineProgram | None:
     """The machine program for the whole trace; None (with an error) if something cannot
     be knitted yet."""
     prog = MachineProgram(machine)
-    gen = _Gen(g, lay, t, carriers, Bed(g, prog, machine.racking_limit))
+    gen = _Gen(g, lay, t, carriers, Bed(g, prog, machine.racking_limit),
+               options or CodegenOptions(), diags)
     try:
         _run(gen)
     except Unsupported as exc:
@@ -64,63 +137,392 @@ def generate(g: StitchGraph, lay: Layout, t: tr.Trace, *, machine: Machine,
                     hint="the code generator does not plan this transfer yet; keep shaping "
                          "within 4 needles per course and avoid gauge changes in one piece")
         return None
+    for node, n in sorted(gen.split_fallbacks.items()):
+        ids = np.nonzero(g.node == node)[0]
+        diags.warning("W602", f"{n} split increase(s) of `{g.node_names[node]}` use a kickback "
+                      "increase: no needle on the other bed was free to split onto, or the "
+                      "yarn would have floated past two split stitches in a row",
+                      gen.bed.span(int(ids[0])) if ids.size else None,
+                      hint="split increases need the facing needle free: use half gauge, "
+                           "or `increase: kickback`")
     return prog
 
 
 def _run(gen: _Gen) -> None:
     g, t = gen.g, gen.t
     free = list(gen.carriers) + [c for c in range(1, 11) if c not in gen.carriers]
-    started: set[int] = set()
-    carrier_of: dict[int, int] = {}
-    # visit indices of each course, in trace order
     course_of_visit = g.course[t.stitch]
     boundaries = np.nonzero(np.diff(course_of_visit) != 0)[0] + 1
-    chunks = np.split(np.arange(t.n_visits), boundaries)
-    for chunk in chunks:
+    for chunk in np.split(np.arange(t.n_visits), boundaries):
         if chunk.size == 0:
             continue
         ids = t.stitch[chunk]
+        c = int(g.course[ids[0]])
         yarn = int(t.yarn[chunk[0]])
         gen.where_span = gen.bed.span(int(ids[0]))
-        fresh = all(int(g.wale_prev[s, 0]) < 0 for s in ids)
-        # shaping: bring every parent loop to its child's needle
-        moves = []
-        in_course = set(int(s) for s in ids)
-        for p in np.unique(g.wale_prev[ids]):
-            p = int(p)
-            if p < 0 or p not in gen.bed.where:
-                continue
-            # an increase parent's loop goes to its first child; the second child tucks
-            child = next((int(c) for c in g.wale_next[p] if int(c) in in_course), -1)
-            if child >= 0 and gen.bed.where[p] != gen.pos(child):
-                moves.append((p, gen.bed.where[p], gen.pos(child)))
-        if moves:
-            move(gen.bed, moves)
-        if yarn not in started:
+        primary = _shaping(gen, chunk)
+        new = yarn not in gen.carrier_of
+        if new:
             if not free:
                 raise Unsupported("more than 10 yarns would be in use at once")
-            carrier = free.pop(0)
-            carrier_of[yarn] = carrier
-            started.add(yarn)
-            if fresh:
-                cast_on(gen.bed, ids, gen.pos, carrier)
-            else:
-                gen.bed.prog.in_((carrier,), stitch=int(ids[0]),
-                                 span=gen.bed.span(int(ids[0])))
-        carrier = carrier_of[yarn]
-        for v in chunk:
-            s = int(t.stitch[v])
-            pos = gen.pos(s)
-            d = int(t.dir[v]) or 1
-            kind = "knit" if gen.bed.loops.get(pos, 0) > 0 else "tuck"
-            gen.bed.stitch_op(kind, d, pos, s, carrier)
-        # stitches that end here are cast off once their course is done
+            gen.carrier_of[yarn] = free.pop(0)
+        carrier = gen.carrier_of[yarn]
+        ctx = gen.ctx(carrier, int(ids[0]))
+        catch: list[Pos] = []
+        if all(int(g.wale_prev[s, 0]) < 0 for s in ids):
+            catch = _cast_on(gen, ctx, chunk, new)
+        elif new:
+            gen.bed.prog.in_((carrier,), stitch=int(ids[0]), span=ctx.span)
+        _presser(gen, c)
+        _action_pass(gen, ctx, chunk, primary)
+        for p in catch:
+            if gen.bed.loops.get(p, 0):
+                gen.bed.drop(p, -1)
         ends = [int(s) for s in ids if g.wale_next[s, 0] < 0]
-        if ends:
-            cast_off(gen.bed, ends, gen.pos, carrier)
+        left, last_dir = _cast_off(gen, ctx, chunk, ends) if ends else (-1, 0)
         if t.flags[chunk[-1]] & tr.END:
-            gen.bed.prog.outhook((carrier,))
+            tail_pos = cast.tail(ctx, left, last_dir) if left >= 0 else None
+            cast.yarn_end(ctx, tail_pos, left if left >= 0 else int(ids[-1]))
+            del gen.carrier_of[yarn]
             free.append(carrier)  # reuse carriers last: a carrier brought back keeps its yarn
+        elif left >= 0:
+            _tail_and_drop(ctx, left, last_dir)
     leftover = [pos for pos, n in gen.bed.loops.items() if n > 0]
     if leftover:
         raise Unsupported(f"{len(leftover)} loops would be left on the needles")
+
+
+# ---- shaping ----------------------------------------------------------------------------------
+
+def _shaping(gen: _Gen, chunk: np.ndarray) -> dict[int, int]:
+    """Move every parent loop of the course to its child's needle (an increase parent to its
+    nearer child); returns parent -> the child that receives its loop."""
+    g, bed = gen.g, gen.bed
+    ids = gen.t.stitch[chunk]
+    in_course = set(int(s) for s in ids)
+    primary: dict[int, int] = {}
+    moves = []
+    for p in np.unique(g.wale_prev[ids]):
+        p = int(p)
+        if p < 0 or p not in bed.where:
+            continue
+        kids = [int(k) for k in g.wale_next[p] if int(k) in in_course]
+        if not kids:
+            continue
+        here = bed.where[p]
+        child = min(kids, key=lambda k: (abs(gen.pos(k)[1] - here[1]),
+                                         gen.pos(k)[0] != here[0], kids.index(k)))
+        primary[p] = child
+        if here != gen.pos(child):
+            moves.append((p, here, gen.pos(child)))
+    if moves:
+        _park(gen, moves, gen.pos(int(ids[0]))[1])
+        bed.prog.stitch_number(gen.opts.numbers.transfer)
+        move(bed, moves)
+    return primary
+
+
+def _park(gen: _Gen, moves: list, toward: int) -> None:
+    """Kick every carrier left strictly inside the span of `moves` out of it, to the side
+    nearer `toward` (where the next knitting starts): a `miss` one needle outside, on a
+    needle the transfers do not touch, so the carrier does not follow a moved loop."""
+    idx = [m[1][1] for m in moves] + [m[2][1] for m in moves]
+    lo, hi = min(idx), max(idx)
+    needles = gen.bed.prog.machine.needles
+    for carrier in sorted(gen.carrier_of.values()):
+        at = gen.bed.carrier_at.get(carrier)
+        if at is None or not lo < at < hi:
+            continue
+        sides = sorted([(lo - 1, -1), (hi + 1, 1)], key=lambda s: abs(s[0] - toward))
+        for needle, d in sides:
+            if 0 <= needle < needles:
+                cast.emit(gen.ctx(carrier, -1), "miss", d, ("f", needle))
+                break
+
+
+# ---- cast-on ----------------------------------------------------------------------------------
+
+def _entries(gen: _Gen, chunk: np.ndarray) -> list[cast.Entry]:
+    return [cast.Entry(gen.pos(int(s)), int(d) or 1, int(s))
+            for s, d in zip(gen.t.stitch[chunk], gen.t.dir[chunk], strict=True)]
+
+
+def _cast_on(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, new: bool) -> list[Pos]:
+    """Yarn start (for a new yarn) and cast-on of a course of empty needles; returns the
+    catching needles to drop after the course."""
+    g = gen.g
+    c = int(g.course[gen.t.stitch[chunk[0]]])
+    entries = _entries(gen, chunk)
+    kind = gen.opts.cast_on_for(g.course_names.get(c, ()))
+    circular = bool(g.course_circular[c])
+    if kind == "precast":
+        node = int(g.course_node[c])
+        cover = {gen.pos(int(s)) for s in np.nonzero(g.node == node)[0]}
+        cover = {p for p in cover if not gen.bed.loops.get(p, 0)} | {e.pos for e in entries}
+        plan = cast.plan_precast(entries, cover)
+    else:
+        plan = cast.plan_cast_on(kind, entries, circular)
+    catch: list[Pos] = []
+    if new:
+        busy = {st.pos for st in plan} | {e.pos for e in entries}
+        catch = cast.yarn_start(ctx, plan[0] if plan else entries[0], busy, entries[0].stitch)
+    cast.emit_plan(ctx, plan)
+    return catch
+
+
+# ---- action pass ------------------------------------------------------------------------------
+
+ActionStep = Callable[[], None]
+
+
+@dataclass
+class Action:
+    """One stitch's steps (thesis "Action Pass", after the pre-main-post stitch actions of
+    Narayanan et al.): `pre` steps bring loops where the main step needs them, `main` steps
+    make the stitch, `post` steps finish (return loops, remove local yarns). A pass runs the
+    k-th pre step of every stitch for k = 0, 1, ..., then the main steps in yarn order, then
+    the post steps like the pre steps."""
+
+    stitch: int
+    pre: list[ActionStep] = field(default_factory=list)
+    main: list[ActionStep] = field(default_factory=list)
+    post: list[ActionStep] = field(default_factory=list)
+
+
+def run_actions(actions: list[Action]) -> None:
+    """Run the steps of a sub-sequence of stitches in the order of the thesis's action pass."""
+    for part in ("pre", "main", "post"):
+        lists = [getattr(a, part) for a in actions]
+        if part == "main":
+            order = [f for fs in lists for f in fs]
+        else:
+            depth = max((len(fs) for fs in lists), default=0)
+            order = [fs[k] for k in range(depth) for fs in lists if k < len(fs)]
+        for f in order:
+            f()
+
+
+def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int, int]) -> None:
+    incs = _increases(gen, chunk, primary)
+    actions = [_action(gen, ctx, int(s), int(d) or 1, incs.get(int(s)))
+               for s, d in zip(gen.t.stitch[chunk], gen.t.dir[chunk], strict=True)]
+    run_actions(actions)
+
+
+def _action(gen: _Gen, ctx: cast.Ctx, s: int, d: int, inc: tuple | None) -> Action:
+    """The built-in action of stitch `s` visited in direction `d`."""
+    bed, numbers = gen.bed, gen.opts.numbers
+    pos = gen.pos(s)
+    half = int(gen.g.course_gauge[int(gen.g.course[s])]) == 2
+    plain = numbers.knit_half_gauge if half else numbers.knit
+
+    def knit() -> None:
+        if bed.loops.get(pos, 0):
+            cast.emit(ctx, "knit", d, pos, s, plain)
+        else:  # nothing to knit through: a loop cast onto the empty needle
+            cast.emit(ctx, "tuck", d, pos, s, numbers.cast_on)
+
+    def kickback() -> None:
+        if bed.loops.get(pos, 0):
+            knit()
+        else:
+            cast.emit(ctx, "tuck", -d, pos, s, numbers.increase)
+
+    def missed() -> None:
+        cast.emit(ctx, "miss", d, pos, s)
+
+    if inc is None:
+        return Action(s, main=[knit])
+    if inc[0] == "kickback":
+        return Action(s, main=[kickback])
+    if inc[0] == "miss":
+        return Action(s, main=[missed])
+    _, target, sibling = inc
+    return Action(s, main=[lambda: _split(gen, ctx, s, d, target, sibling)],
+                  post=[lambda: _unsplit(gen, target, sibling)])
+
+
+def _increases(gen: _Gen, chunk: np.ndarray, primary: dict[int, int]) -> dict[int, tuple]:
+    """How each increase of the course is made: the child without its parent's loop gets a
+    ("kickback",), or, for split increases with a free facing needle, the child with the
+    loop gets ("split", facing needle, sibling) and its sibling ("miss",). A child whose
+    needle already holds a loop (a precast one) is a plain knit.
+
+    A missed sibling holds no yarn of this course, so two neighbours are never both missed:
+    the yarn would float across them (a tube growing out of a collapsed end would float
+    across its whole back bed); the second one uses a kickback."""
+    g, bed = gen.g, gen.bed
+    ids = [int(s) for s in gen.t.stitch[chunk]]
+    in_course = set(ids)
+    busy = {gen.pos(s) for s in ids}
+    busy |= {gen.pos(int(k)) for s in ids for k in g.wale_next[s] if k >= 0}
+    visit = {s: i for i, s in enumerate(ids)}
+    missed: set[int] = set()
+    out: dict[int, tuple] = {}
+    for p, c1 in sorted(primary.items(), key=lambda pc: visit.get(pc[1], 0)):
+        kids = [int(k) for k in g.wale_next[p] if k >= 0]
+        if len(kids) != 2:
+            continue
+        c2 = kids[0] if kids[1] == c1 else kids[1]
+        if c2 not in in_course or bed.loops.get(gen.pos(c2), 0):
+            continue
+        node = int(g.node[c2])
+        if gen.opts.increase_for(g.node_names[node]) == "split" \
+                and bed.where.get(p) == gen.pos(c1):
+            lonely = not ({int(g.cprev[c2]), int(g.cnext[c2])} & missed)
+            target = _split_target(gen, gen.pos(c1), gen.pos(c2), busy) if lonely else None
+            if target is not None:
+                out[c1] = ("split", target, c2)
+                out[c2] = ("miss",)
+                missed.add(c2)
+                busy.add(target)
+                continue
+            gen.split_fallbacks[node] += 1
+        out[c2] = ("kickback",)
+    return out
+
+
+def _split_target(gen: _Gen, src: Pos, sib: Pos, busy: set[Pos]) -> Pos | None:
+    """A free hook on the other bed, within racking reach of `src`, as near the sibling's
+    needle as possible (the old loop waits there for the sibling's next course). Sliders are
+    not used: the independent machine does not model a split onto a slider."""
+    other = "b" if src[0] == "f" else "f"
+    n, m = src[1], sib[1]
+    if sib[0] == other:  # an increase across the fold: split straight onto the sibling
+        return sib if abs(m - n) <= gen.bed.max_rack else None
+    needles = gen.bed.prog.machine.needles
+    for k in sorted(range(min(n, m) - 1, max(n, m) + 2), key=lambda k: (abs(k - m), abs(k - n))):
+        q = (other, k)
+        if max(abs(k - n), abs(k - m)) > gen.bed.max_rack or not 0 <= k < needles:
+            continue
+        if q not in busy and not gen.bed.loops.get(q, 0):
+            return q
+    return None
+
+
+def _split(gen: _Gen, ctx: cast.Ctx, s: int, d: int, target: Pos, sibling: int) -> None:
+    """`split`: a new loop for `s` through its parent's loop, which moves to `target` and
+    becomes the loop of `sibling`."""
+    bed = gen.bed
+    src = gen.pos(s)
+    # at racking r, back needle k faces front needle k + r
+    r = src[1] - target[1] if src[0] == "f" else target[1] - src[1]
+    bed.prog.stitch_number(gen.opts.numbers.increase)
+    bed.set_rack(r)
+    bed.prog.split(d, f"{src[0]}{src[1]}", f"{target[0]}{target[1]}", (ctx.carrier,),
+                   stitch=s, span=bed.span(s))
+    bed.loops[target] += bed.loops.pop(src, 0)
+    for x in bed.at.pop(src, ()):
+        del bed.where[x]
+    bed.loops[src] = 1
+    bed.place(s, src)
+    bed.place(sibling, target)
+    bed.carrier_at[ctx.carrier] = src[1] + 0.5 * d
+    bed.set_rack(0)
+
+
+def _unsplit(gen: _Gen, target: Pos, sibling: int) -> None:
+    """The split's post step: the old loop goes from the facing needle to its own (the
+    sibling's) needle, so the next course finds every loop where the layout put it."""
+    bed, home = gen.bed, gen.pos(sibling)
+    if home == target or bed.where.get(sibling) != target or bed.loops.get(home, 0):
+        return
+    _park(gen, [(sibling, target, home)], home[1])
+    bed.prog.stitch_number(gen.opts.numbers.transfer)
+    bed.set_rack(home[1] - target[1] if home[0] == "f" else target[1] - home[1])
+    bed.xfer(target, home, sibling)
+    bed.set_rack(0)
+
+
+def _presser(gen: _Gen, c: int) -> None:
+    """Short rows press the fabric down (the loops of the rows not knitted would lift it);
+    `auto` presses only on single-bed passes, where the presser cannot catch the other bed."""
+    mode = "auto" if int(gen.g.course_kind[c]) == SHORT_ROW else "off"
+    if mode != gen.presser:
+        gen.bed.prog.presser(mode)
+        gen.presser = mode
+
+
+# ---- cast-off ---------------------------------------------------------------------------------
+
+def _cast_off(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, ends: list[int]) -> tuple[int, int]:
+    """Bind off the stitches that end, run by run from the last one knitted; returns the
+    stitch whose loop is left for the yarn's tail (-1: none) and its last knit direction."""
+    g, t = gen.g, gen.t
+    ids = [int(s) for s in t.stitch[chunk]]
+    c = int(g.course[ids[0]])
+    names = g.course_names.get(c, ())
+    kind = gen.opts.cast_off_for(names)
+
+    def neighbours(a: int, b: int) -> bool:
+        return int(g.cnext[a]) == b or int(g.cprev[a]) == b
+
+    runs = cast.runs(ends, neighbours, bool(g.course_circular[c]))
+    if kind == "none":
+        for run in runs:
+            cast.drop_run(ctx, run)
+        _warn_dropped(gen, names, len(ends), ends[0])
+        return -1, 0
+    order = {s: i for i, s in enumerate(ids)}
+    end_set = set(ends)
+    last_dir = int(t.dir[chunk[-1]]) or 1
+    left, left_dir = -1, 0
+    todo = list(reversed(runs))
+    while todo:
+        run = _nearest_run(gen, todo, ctx.carrier)
+        st, d = cast.cast_off_run(gen.ctx(ctx.carrier, run[-1]), kind, run,
+                                  _closing(gen, run, end_set, order), last_dir)
+        last_dir = d or last_dir
+        if not todo:
+            left, left_dir = st, d
+        elif st >= 0:
+            _tail_and_drop(ctx, st, d)
+    return left, left_dir
+
+
+def _nearest_run(gen: _Gen, todo: list[list[int]], carrier: int) -> list[int]:
+    """Take from `todo` the run to bind off next: the one with an end nearest the carrier
+    (so the yarn does not float back across the course), oriented so that its chain (which
+    starts from the run's last stitch) starts at that end. Ties keep yarn order reversed:
+    the last run knitted, from its last stitch."""
+    at = gen.bed.carrier_at.get(carrier)
+    if at is None:
+        return todo.pop(0)
+
+    def dist(s: int) -> float:
+        p = gen.bed.where.get(s)
+        return abs(p[1] - at) if p is not None else float("inf")
+
+    best = min(range(len(todo)), key=lambda i: (min(dist(todo[i][-1]), dist(todo[i][0])), i))
+    run = todo.pop(best)
+    return run if dist(run[-1]) <= dist(run[0]) else run[::-1]
+
+
+def _closing(gen: _Gen, run: list[int], ends: set[int], order: dict[int, int]) -> int:
+    """A live course neighbour of the run's first stitch (the bind-off's last), to close the
+    chain onto: the one knitted before it, else any."""
+    g = gen.g
+    first = run[0]
+    cands = [int(n) for n in (g.cprev[first], g.cnext[first])
+             if n >= 0 and int(n) not in ends and int(n) in gen.bed.where]
+    cands.sort(key=lambda n: (order.get(n, len(order)) > order.get(first, 0), n))
+    return cands[0] if cands else -1
+
+
+def _tail_and_drop(ctx: cast.Ctx, stitch: int, d: int) -> None:
+    pos = cast.tail(ctx, stitch, d)
+    if pos is not None and ctx.bed.loops.get(pos, 0):
+        ctx.bed.drop(pos, stitch)
+
+
+def _warn_dropped(gen: _Gen, names: tuple[str, ...], n: int, s: int) -> None:
+    key = names[0] if names else f"course {int(gen.g.course[s])}"
+    if key in gen.warned:
+        return
+    gen.warned.add(key)
+    where = f"`{names[0]}`" if names else "a course"
+    span = gen.opts.interface_span.get(names[0]) if names else None
+    gen.diags.warning("W601", f"{where} is not cast off (`cast_off: none`): its {n} loop(s) "
+                      "are dropped and the edge will unravel unless it is secured off the "
+                      "machine", span or gen.bed.span(s),
+                      hint="use `cast_off: pickup`, `direct` or `reverse` for a bound edge")
