@@ -48,8 +48,15 @@ def test_generated_programs_compile_to_valid_machine_programs(prog):
     assert knitted >= set(range(r.graph.n_stitches))
 
 
+# The independent machine's hazard warnings and the knitc findings that must have announced
+# them: a generated garment may be hazardous (a designer's choice that knitc warns about at
+# the DSL line), but never silently so.
+ANNOUNCED_BY = {"Long_Float_Warning": "W803"}
+
+
 def test_a_sample_of_generated_programs_runs_clean_on_the_independent_machine():
     texts: list[str] = []
+    warned: list[set[str]] = []
 
     @settings(SETTINGS, max_examples=20)
     @given(programs())
@@ -57,8 +64,9 @@ def test_a_sample_of_generated_programs_runs_clean_on_the_independent_machine():
         r = _compile(prog)
         if r is not None and len(texts) < 12:
             texts.append(write_knitout(r.program))
+            warned.append({f.code for f in simulate(r.program)})
 
     collect()
     assert texts, "no generated program reached Knitout"
-    for report in run_oracle_on_text(texts):
-        assert_clean(report)
+    for report, codes in zip(run_oracle_on_text(texts), warned, strict=True):
+        assert_clean(report, allow=[h for h, c in ANNOUNCED_BY.items() if c in codes])

@@ -35,13 +35,28 @@ E, A, S = sl.EXPECTED, sl.ACTIVE, sl.SUSPENDED
 
 # ---- a plain transcription of the slicing rules ----------------------------------------------
 
+def shaping_rule(g: StitchGraph) -> list[int]:
+    """Increases + decreases per stitch, folds excluded (a flat course opening into a tube
+    or a tube collapsing into a flat course), written out on lists."""
+    nexts = [[int(k) for k in row if k >= 0] for row in g.wale_next]
+    prevs = [[int(p) for p in row if p >= 0] for row in g.wale_prev]
+    circ = [bool(g.course_circular[int(g.course[s])]) for s in range(g.n_stitches)]
+
+    def fold(s: int, two: list[int]) -> bool:
+        return (not circ[s] and circ[two[0]]
+                and int(g.side[two[0]]) != int(g.side[two[1]]))
+
+    return [int(len(nexts[s]) == 2 and not fold(s, nexts[s]))
+            + int(len(prevs[s]) == 2 and not fold(s, prevs[s])) for s in range(g.n_stitches)]
+
+
 def reference_slices(g: StitchGraph, t: Trace, flat: int, tube: int) -> list[dict]:
     """The slicing rules one visit at a time, on Python lists (see slice.py's docstring)."""
     ccw = sl.ccw_courses(g)
     kids = [[int(k) for k in row if k >= 0] for row in sl.ccw_kids(g, ccw)]
     prevs = [[int(p) for p in row if p >= 0] for row in g.wale_prev]
     dec = [len(kids[s]) == 1 and len(prevs[kids[s][0]]) == 2 for s in range(g.n_stitches)]
-    shaping = [int(len(kids[s]) == 2) + int(len(prevs[s]) == 2) for s in range(g.n_stitches)]
+    shaping = shaping_rule(g)
     done = [0] * g.n_stitches
 
     def finished(s: int) -> bool:
@@ -129,6 +144,7 @@ def reference_slices(g: StitchGraph, t: Trace, flat: int, tube: int) -> list[dic
 def check_constraints(g: StitchGraph, t: Trace, s: sl.Slices) -> None:
     prevs = [[int(p) for p in row if p >= 0] for row in g.wale_prev]
     nexts = [[int(p) for p in row if p >= 0] for row in g.wale_next]
+    rule = shaping_rule(g)
     stitch, yarn, dirs = t.stitch.tolist(), t.yarn.tolist(), t.dir.tolist()
     seen: list[int] = []
     for k in range(s.n_slices):
@@ -144,7 +160,7 @@ def check_constraints(g: StitchGraph, t: Trace, s: sl.Slices) -> None:
         assert len({not prevs[x] for x in vis}) == 1  # (3)
         assert len({not nexts[x] for x in vis}) == 1
         assert len(set(dirs[a:b])) == 1  # (4)
-        shaping = sum((len(nexts[x]) == 2) + (len(prevs[x]) == 2) for x in vis)
+        shaping = sum(rule[x] for x in vis)
         assert shaping == s.shaping[k]
         assert shaping <= s.limit[k] or len(vis) == 1  # (5)
     assert seen == list(range(t.n_visits))

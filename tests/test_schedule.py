@@ -1,7 +1,8 @@
 """Schedule optimisation (thesis ch. 6.7.2-3, 6.8.2): the layout families, the cost tuple,
 the reuse shortcut, interface orders from bridges, offsets that never overlap and keep a
 gap around a changing block, half-gauge expansion, E601, the code generator's helpers,
-`--emit schedule`, and the cost against the fixed layout of `passes/layout.py`.
+`--emit schedule`, and the cost against the fixed node-frame layout knitc used before it had
+a scheduler (tests/fixed_layout.py).
 
 Small cases are built by hand: a stitch graph of rings and rows (hints as the shape pass
 writes them: ring front 0..h-1 left to right, back right to left) and the slices over it,
@@ -17,13 +18,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fixed_layout import layout
 from knitc.cli import main
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source, emit_json
 from knitc.ir import schedule as ir
 from knitc.ir.slices import ACTIVE, Slices
 from knitc.ir.stitch_graph import StitchGraph, empty_pair
-from knitc.passes.layout import layout
 from knitc.passes.schedule import hub_bridges, schedule, valid_orders
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -447,7 +448,7 @@ def test_emit_schedule_is_stable_with_stats_first(tmp_path, capsys):
 # ---- against the fixed layout -------------------------------------------------------------------
 
 def fixed_layout_moves(g: StitchGraph, needles: int) -> tuple[int, int]:
-    """Loop moves of passes/layout.py: every loop goes from its stitch's needle to that of
+    """Loop moves of the fixed layout: every loop goes from its stitch's needle to that of
     its first next wale."""
     lay = layout(g, needles, Diagnostics())
     c = g.wale_next[:, 0]

@@ -101,10 +101,23 @@ def test_closed_tube_merges_front_and_back():
     # SUSPENDED while the back is knitted, then both merge
     g, t, s = sliced("tube t { length: 3  width: 3 }\nt.top closed")
     assert cycles(s)[3:] == ["6s 7s 8s 9a 10a 11a", "12a 13a 14a"]
-    assert s.shaping.tolist()[-1] == 3 and s.cast_off.tolist()[-1]
+    # a collapse closing is a fold, not shaping: it does not count towards the limit
+    assert s.shaping.tolist()[-1] == 0 and s.cast_off.tolist()[-1]
     # the merges leave the last cycle on the front bed: a flat cycle, cut with the
     # tubular limit it opened with
     assert not s.circular[-1] and s.limit[-1] == 4
+
+
+def test_a_collapse_closing_is_not_cut_by_the_shaping_limit():
+    # 6 front+back merges, more than the tubular limit of 4: still one slice, because a
+    # fold moves loops straight across the beds (a cut would leave half the closing waiting)
+    g, t, s = sliced("tube t { length: 2  width: 6 }\nt.top closed")
+    st, state = s.cycle(s.n_slices - 1)
+    assert (state == sl.ACTIVE).sum() == 6 and (state == sl.SUSPENDED).sum() == 0
+    assert (sl.stitch_shaping(g)[st] == 0).all()
+    # a real decrease of a tube still counts
+    g, t, s = sliced("tube t { length: 2  width: [0: 8, 1: 4], shaper: sides }")
+    assert s.shaping.sum() == 8
 
 
 def test_increase_children_are_expected_in_order():

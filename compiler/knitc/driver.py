@@ -1,9 +1,9 @@
 """The pipeline, readable in one place.
 
     source ──parse──▶ AST ──resolve + verify──▶ Skeleton ──shape──▶ StitchGraph ──trace──▶ Trace
-      ──slice──▶ Slices ──schedule──▶ Schedule;  Trace ──layout + codegen──▶ MachineProgram
-      ──simulate──▶ diagnostics;  ──emit──▶ Knitout
-    (patterning, code generation from the schedule and DAT come later)
+      ──slice──▶ Slices ──schedule──▶ Schedule ──codegen──▶ MachineProgram
+      ──simulate──▶ diagnostics;  MachineProgram ──emit──▶ Knitout
+    (patterning and DAT come later)
 
 Each stage is a pure function of the previous IR plus a `Diagnostics` collection; the driver
 stops after the first stage that reported errors, because later stages would only repeat
@@ -25,7 +25,6 @@ from knitc.ir import slices as sl
 from knitc.ir import stitch_graph as sg
 from knitc.ir import trace as tr
 from knitc.passes.codegen import generate, options_from_skeleton
-from knitc.passes.layout import layout
 from knitc.passes.resolve import parse_define, resolve
 from knitc.passes.schedule import schedule
 from knitc.passes.shape import build_stitch_graph
@@ -111,10 +110,7 @@ def compile_source(text: str, path: str, *, defines: list[str] = (), until: str 
     if until == "schedule":
         return _finish(result, werror)
     machine = mp.Machine(name=m.model, needles=m.needles, racking_limit=m.racking)
-    lay = layout(graph, m.needles, diags)
-    if lay is None:
-        return _finish(result, werror)
-    program = generate(graph, lay, trace, machine=machine, carriers=m.carriers, diags=diags,
+    program = generate(graph, sched, trace, machine=machine, carriers=m.carriers, diags=diags,
                        options=options_from_skeleton(skel))
     if program is None:
         return _finish(result, werror)

@@ -35,6 +35,7 @@ share a needle; alignment records only move held loops.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -291,25 +292,47 @@ def held_loops(g: StitchGraph, sl: Slices) -> Loops:
     return Loops(cols[0].astype(np.int32), *cols[1:])
 
 
+def placements(g: StitchGraph, sched: Schedule
+               ) -> Iterator[tuple[int, tuple[np.ndarray, np.ndarray, np.ndarray],
+                                   tuple[np.ndarray, np.ndarray, np.ndarray]]]:
+    """For each slice k in order: (k, alignments, represented), each as (loops, beds,
+    needles): the held loops that move out of the way before slice k, then every loop
+    slice k's cycle stands for, at the place the slice wants it (a loop of a stitch that
+    slice k knits first is not on the bed yet). This is the shaping the code generator
+    performs before each slice, and what `loop_moves` counts."""
+    sl = sched.slices
+    made, end = _lifetimes(g, sl)
+    mark = np.full(g.n_stitches, -1, np.int64)
+    for k in range(sl.n_slices):
+        rep, en = _represented(g, sl, k, made, end, mark)
+        yield k, alignments(sched, k), (rep, sched.bed[en], sched.needle[en])
+
+
 def loop_moves(g: StitchGraph, sched: Schedule) -> tuple[int, int]:
     """(roll, shift): how many times a loop changes bed, and changes needle, between its
     successive places on the bed (each slice that represents it, and its alignments)."""
-    sl = sched.slices
-    made, end = _lifetimes(g, sl)
     bed = np.full(g.n_stitches, -1, np.int64)
     ndl = np.full(g.n_stitches, -1, np.int64)
-    mark = np.full(g.n_stitches, -1, np.int64)
     roll = shift = 0
-    for k in range(sl.n_slices):
-        s_al, b_al, n_al = alignments(sched, k)
-        rep, en = _represented(g, sl, k, made, end, mark)
-        for lo, b, n in ((s_al.astype(np.int64), b_al, n_al),
-                         (rep, sched.bed[en], sched.needle[en])):
+    for _k, (s_al, b_al, n_al), (rep, b_rep, n_rep) in placements(g, sched):
+        for lo, b, n in ((s_al.astype(np.int64), b_al, n_al), (rep, b_rep, n_rep)):
             known = bed[lo] >= 0
             roll += int(np.count_nonzero(known & (bed[lo] != b)))
             shift += int(np.count_nonzero(known & (ndl[lo] != n)))
             bed[lo], ndl[lo] = b, n
     return roll, shift
+
+
+def knit_positions(sched: Schedule, n_stitches: int) -> tuple[np.ndarray, np.ndarray]:
+    """(bed, needle) per stitch where it is knitted: its ACTIVE entry (-1 if none; with
+    double tracing, the last one)."""
+    sl = sched.slices
+    bed = np.full(n_stitches, -1, np.int8)
+    needle = np.full(n_stitches, -1, np.int32)
+    act = sl.state == ACTIVE
+    bed[sl.stitch[act]] = sched.bed[act]
+    needle[sl.stitch[act]] = sched.needle[act]
+    return bed, needle
 
 
 # ---- verifier ---------------------------------------------------------------------------------

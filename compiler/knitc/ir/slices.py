@@ -23,7 +23,8 @@ first of them in cycle order) and makes it ACTIVE.
 
 Counting shaping: a stitch with two next wales is one increase, a stitch with two
 previous wales one decrease (the merge), so each shaping event counts once, in the slice
-that knits its splitting or merged stitch (`stitch_shaping`).
+that knits its splitting or merged stitch (`stitch_shaping`); folds (a flat course opening
+into a tube or a tube collapsing into a flat course) do not count.
 
 A slice is `circular` when its cycle lies on both beds (a ring), else a flat cycle laid
 left to right.
@@ -98,9 +99,23 @@ class Slices:
 
 def stitch_shaping(g: StitchGraph) -> np.ndarray:
     """Per stitch: 1 for an increase (two next wales), 1 for a decrease (two previous
-    wales), so each shaping event counts once (int8; 2 for a stitch that is both)."""
-    return ((g.wale_next >= 0).sum(1) == 2).astype(np.int8) + \
-        ((g.wale_prev >= 0).sum(1) == 2).astype(np.int8)
+    wales), so each shaping event counts once (int8; 2 for a stitch that is both).
+
+    Folds are not shaping: a flat course opening into a tube (each stitch's two children on
+    the two beds) or a tube closing into a flat course (each stitch merging a front and a
+    back loop, a collapse closing) moves every loop straight across the beds, nothing
+    stretches along a bed. Cutting such a course into limited slices would leave half a
+    closing waiting while the ring it belongs to is already zipped, which no layout of a
+    ring can describe."""
+    n_next = (g.wale_next >= 0).sum(1)
+    n_prev = (g.wale_prev >= 0).sum(1)
+    inc, dec = n_next == 2, n_prev == 2
+    circ = g.course_circular[g.course]
+    k0, k1 = np.maximum(g.wale_next[:, 0], 0), np.maximum(g.wale_next[:, 1], 0)
+    opening = inc & ~circ & circ[k0] & (g.side[k0] != g.side[k1])
+    p0, p1 = np.maximum(g.wale_prev[:, 0], 0), np.maximum(g.wale_prev[:, 1], 0)
+    closing = dec & ~circ & circ[p0] & (g.side[p0] != g.side[p1])
+    return (inc & ~opening).astype(np.int8) + (dec & ~closing).astype(np.int8)
 
 
 def decreasing(g: StitchGraph) -> np.ndarray:

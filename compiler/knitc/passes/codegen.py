@@ -37,13 +37,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from knitc.diagnostics import Diagnostics
+from knitc.ir import schedule as sc
 from knitc.ir import skeleton as sk
 from knitc.ir import trace as tr
 from knitc.ir.machine import Machine, MachineProgram
 from knitc.ir.stitch_graph import COURSE_KINDS, StitchGraph
 from knitc.passes import casting as cast
 from knitc.passes.bed import BEDS, Bed, Pos, Unsupported
-from knitc.passes.layout import Layout
 from knitc.passes.transfers import move
 from knitc.source import Span
 
@@ -100,7 +100,7 @@ def options_from_skeleton(skel: sk.Skeleton) -> CodegenOptions:
 @dataclass
 class _Gen:
     g: StitchGraph
-    lay: Layout
+    sched: sc.Schedule
     t: tr.Trace
     carriers: tuple[int, ...]
     bed: Bed
@@ -114,21 +114,27 @@ class _Gen:
     split_fallbacks: Counter = field(default_factory=Counter)
     """Nodes -> split increases that had to use a kickback (no free needle to split to)."""
     warned: set[str] = field(default_factory=set)
+    knit_bed: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int8))
+    knit_needle: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    """Where the schedule knits each stitch (`schedule.knit_positions`)."""
+
+    def __post_init__(self) -> None:
+        self.knit_bed, self.knit_needle = sc.knit_positions(self.sched, self.g.n_stitches)
 
     def pos(self, s: int) -> Pos:
-        return BEDS[int(self.lay.bed[s])], int(self.lay.needle[s])
+        return BEDS[int(self.knit_bed[s])], int(self.knit_needle[s])
 
     def ctx(self, carrier: int, s: int) -> cast.Ctx:
         return cast.Ctx(self.bed, carrier, self.opts.numbers, self.bed.span(int(s)))
 
 
-def generate(g: StitchGraph, lay: Layout, t: tr.Trace, *, machine: Machine,
+def generate(g: StitchGraph, sched: sc.Schedule, t: tr.Trace, *, machine: Machine,
              carriers: tuple[int, ...], diags: Diagnostics,
              options: CodegenOptions | None = None) -> MachineProgram | None:
     """The machine program for the whole trace; None (with an error) if something cannot
     be knitted yet."""
     prog = MachineProgram(machine)
-    gen = _Gen(g, lay, t, carriers, Bed(g, prog, machine.racking_limit),
+    gen = _Gen(g, sched, t, carriers, Bed(g, prog, machine.racking_limit),
                options or CodegenOptions(), diags)
     try:
         _run(gen)
@@ -149,69 +155,118 @@ def generate(g: StitchGraph, lay: Layout, t: tr.Trace, *, machine: Machine,
 
 
 def _run(gen: _Gen) -> None:
+    """Courses in trace order, each cut where the schedule's slices begin: before each slice
+    the shaping pass puts the loops where its layout wants them; a course's cast-on comes
+    with its first part and its cast-off after its last."""
     g, t = gen.g, gen.t
     free = list(gen.carriers) + [c for c in range(1, 11) if c not in gen.carriers]
     course_of_visit = g.course[t.stitch]
-    boundaries = np.nonzero(np.diff(course_of_visit) != 0)[0] + 1
-    for chunk in np.split(np.arange(t.n_visits), boundaries):
-        if chunk.size == 0:
+    course_cuts = np.nonzero(np.diff(course_of_visit) != 0)[0] + 1
+    slices = gen.sched.slices
+    cuts = np.union1d(course_cuts, slices.visit[1:])
+    course_bounds = np.r_[0, course_cuts, t.n_visits]
+    placements = sc.placements(g, gen.sched)
+    slice_starts = set(slices.visit.tolist())
+    ci = 0  # index of the current course in course_bounds
+    chunk = np.zeros(0, np.int64)
+    primary: dict[int, int] = {}
+    carrier, ctx, catch = -1, None, []
+    for sub in np.split(np.arange(t.n_visits), cuts):
+        if sub.size == 0:
             continue
-        ids = t.stitch[chunk]
-        c = int(g.course[ids[0]])
-        yarn = int(t.yarn[chunk[0]])
+        v0 = int(sub[0])
+        ids = t.stitch[sub]
         gen.where_span = gen.bed.span(int(ids[0]))
-        primary = _shaping(gen, chunk)
-        new = yarn not in gen.carrier_of
-        if new:
-            if not free:
-                raise Unsupported("more than 10 yarns would be in use at once")
-            gen.carrier_of[yarn] = free.pop(0)
-        carrier = gen.carrier_of[yarn]
-        ctx = gen.ctx(carrier, int(ids[0]))
-        catch: list[Pos] = []
-        if all(int(g.wale_prev[s, 0]) < 0 for s in ids):
-            catch = _cast_on(gen, ctx, chunk, new)
-        elif new:
-            gen.bed.prog.in_((carrier,), stitch=int(ids[0]), span=ctx.span)
-        _presser(gen, c)
-        _action_pass(gen, ctx, chunk, primary)
+        if v0 in slice_starts:
+            _, aligned, represented = next(placements)
+            _place(gen, aligned, represented, int(ids[0]))
+        if v0 == course_bounds[ci]:  # a course begins
+            chunk = np.arange(course_bounds[ci], course_bounds[ci + 1])
+            ci += 1
+            primary = {}
+            yarn = int(t.yarn[v0])
+            new = yarn not in gen.carrier_of
+            if new:
+                if not free:
+                    raise Unsupported("more than 10 yarns would be in use at once")
+                gen.carrier_of[yarn] = free.pop(0)
+            carrier = gen.carrier_of[yarn]
+            ctx = gen.ctx(carrier, int(ids[0]))
+            catch = []
+            cids = t.stitch[chunk]
+            if all(int(g.wale_prev[s, 0]) < 0 for s in cids):
+                catch = _cast_on(gen, ctx, chunk, new)
+            elif new:
+                gen.bed.prog.in_((carrier,), stitch=int(cids[0]), span=ctx.span)
+            _presser(gen, int(g.course[cids[0]]))
+        primary.update(_shaping(gen, sub))
+        _action_pass(gen, ctx, sub, primary)
+        # the yarn has caught on the first part's stitches: the catching tucks go before the
+        # next slice's shaping can need their needles
         for p in catch:
             if gen.bed.loops.get(p, 0):
                 gen.bed.drop(p, -1)
-        ends = [int(s) for s in ids if g.wale_next[s, 0] < 0]
-        left, last_dir = _cast_off(gen, ctx, chunk, ends) if ends else (-1, 0)
-        if t.flags[chunk[-1]] & tr.END:
-            tail_pos = cast.tail(ctx, left, last_dir) if left >= 0 else None
-            cast.yarn_end(ctx, tail_pos, left if left >= 0 else int(ids[-1]))
-            del gen.carrier_of[yarn]
-            free.append(carrier)  # reuse carriers last: a carrier brought back keeps its yarn
-        elif left >= 0:
-            _tail_and_drop(ctx, left, last_dir)
+        catch = []
+        if int(sub[-1]) + 1 == course_bounds[ci]:  # the course is done
+            _finish_course(gen, ctx, chunk, carrier, free)
     leftover = [pos for pos, n in gen.bed.loops.items() if n > 0]
     if leftover:
         raise Unsupported(f"{len(leftover)} loops would be left on the needles")
 
 
-# ---- shaping ----------------------------------------------------------------------------------
+def _finish_course(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, carrier: int,
+                   free: list[int]) -> None:
+    """Cast off what ends, end the yarn if it ends."""
+    g, t = gen.g, gen.t
+    ids = t.stitch[chunk]
+    ends = [int(s) for s in ids if g.wale_next[s, 0] < 0]
+    left, last_dir = _cast_off(gen, ctx, chunk, ends) if ends else (-1, 0)
+    if t.flags[chunk[-1]] & tr.END:
+        tail_pos = cast.tail(ctx, left, last_dir) if left >= 0 else None
+        cast.yarn_end(ctx, tail_pos, left if left >= 0 else int(ids[-1]))
+        del gen.carrier_of[int(t.yarn[chunk[-1]])]
+        free.append(carrier)  # reuse carriers last: a carrier brought back keeps its yarn
+    elif left >= 0:
+        _tail_and_drop(ctx, left, last_dir)
 
-def _shaping(gen: _Gen, chunk: np.ndarray) -> dict[int, int]:
-    """Move every parent loop of the course to its child's needle (an increase parent to its
-    nearer child); returns parent -> the child that receives its loop."""
+
+# ---- shaping and alignment ----------------------------------------------------------------------
+
+def _place(gen: _Gen, aligned: tuple, represented: tuple, first: int) -> None:
+    """The alignment and shaping passes before a slice: held loops move out of the way, then
+    every loop the slice's cycle stands for goes where the slice's layout puts it (the
+    schedule guarantees no two of them meet on a needle)."""
+    bed = gen.bed
+    moves = []
+    for loops, beds, needles in (aligned, represented):
+        for s, b, n in zip(loops.tolist(), beds.tolist(), needles.tolist(), strict=True):
+            here = bed.where.get(s)
+            if here is not None and here != (BEDS[b], n):
+                moves.append((s, here, (BEDS[b], n)))
+    if moves:
+        _park(gen, moves, gen.pos(first)[1])
+        bed.prog.stitch_number(gen.opts.numbers.transfer)
+        move(bed, moves)
+
+
+def _shaping(gen: _Gen, sub: np.ndarray) -> dict[int, int]:
+    """Make sure every parent loop of the stitches about to be knitted is on its child's
+    needle (the schedule already put it there, except where an increase's loop stands for
+    a child of a later slice); returns parent -> the child that receives its loop."""
     g, bed = gen.g, gen.bed
-    ids = gen.t.stitch[chunk]
-    in_course = set(int(s) for s in ids)
+    ids = gen.t.stitch[sub]
+    in_sub = set(int(s) for s in ids)
     primary: dict[int, int] = {}
     moves = []
     for p in np.unique(g.wale_prev[ids]):
         p = int(p)
         if p < 0 or p not in bed.where:
             continue
-        kids = [int(k) for k in g.wale_next[p] if int(k) in in_course]
+        kids = [int(k) for k in g.wale_next[p] if int(k) in in_sub]
         if not kids:
             continue
         here = bed.where[p]
-        child = min(kids, key=lambda k: (abs(gen.pos(k)[1] - here[1]),
-                                         gen.pos(k)[0] != here[0], kids.index(k)))
+        child = next((k for k in kids if gen.pos(k) == here), kids[0])
         primary[p] = child
         if here != gen.pos(child):
             moves.append((p, here, gen.pos(child)))

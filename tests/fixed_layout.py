@@ -1,4 +1,7 @@
-"""Needle layout: which physical needle holds each stitch's loop.
+"""The fixed node-frame layout knitc used before it had a scheduler, kept as the baseline
+the schedule is measured against (tests/test_schedule.py).
+
+Needle layout: which physical needle holds each stitch's loop.
 
 Each node keeps the frame the shape pass gave it (logical needles per bed); this pass
 places the frames on the bed. A node continuing others is placed where its wale parents
