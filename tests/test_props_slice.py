@@ -36,15 +36,17 @@ E, A, S = sl.EXPECTED, sl.ACTIVE, sl.SUSPENDED
 # ---- a plain transcription of the slicing rules ----------------------------------------------
 
 def shaping_rule(g: StitchGraph) -> list[int]:
-    """Increases + decreases per stitch, folds excluded (a flat course opening into a tube
-    or a tube collapsing into a flat course), written out on lists."""
+    """Increases + decreases per stitch, folds (a flat course opening into a tube or a tube
+    collapsing into a flat course) and gauge changes excluded, written out on lists."""
     nexts = [[int(k) for k in row if k >= 0] for row in g.wale_next]
     prevs = [[int(p) for p in row if p >= 0] for row in g.wale_prev]
     circ = [bool(g.course_circular[int(g.course[s])]) for s in range(g.n_stitches)]
 
+    gauge = [int(g.course_gauge[int(g.course[s])]) for s in range(g.n_stitches)]
+
     def fold(s: int, two: list[int]) -> bool:
         return (not circ[s] and circ[two[0]]
-                and int(g.side[two[0]]) != int(g.side[two[1]]))
+                and int(g.side[two[0]]) != int(g.side[two[1]])) or gauge[two[0]] != gauge[s]
 
     return [int(len(nexts[s]) == 2 and not fold(s, nexts[s]))
             + int(len(prevs[s]) == 2 and not fold(s, prevs[s])) for s in range(g.n_stitches)]

@@ -457,12 +457,9 @@ def fixed_layout_moves(g: StitchGraph, needles: int) -> tuple[int, int]:
             int(np.count_nonzero(lay.needle[has] != lay.needle[c[has]])))
 
 
-# wristband2 (a closed tube opened and closed by unfolded splits twice) still moves more
-# loops than the fixed layout: 37 bed changes + 428 needle changes against 55 + 244.
-NOT_COMPARED = {"wristband2.knit"}
 
 
-@pytest.mark.parametrize("path", [p for p in EXAMPLES if p.name not in NOT_COMPARED],
+@pytest.mark.parametrize("path", EXAMPLES,
                          ids=lambda p: str(p.relative_to(ROOT / "examples")))
 def test_schedule_moves_no_more_loops_than_the_fixed_layout(path):
     r = compile_source(path.read_text(), str(path), until="schedule")

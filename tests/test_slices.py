@@ -120,6 +120,20 @@ def test_a_collapse_closing_is_not_cut_by_the_shaping_limit():
     assert s.shaping.sum() == 8
 
 
+def test_a_gauge_change_is_not_cut_by_the_shaping_limit():
+    # 10 half-gauge stitches spread 1:2 onto 20 full-gauge ones: ten increases, but no loop
+    # stretches, so the course is one slice (per direction), not five
+    g, t, s = sliced("sheet a { length: 2  width: 10  gauge: half }\n"
+                     "sheet b { length: 2  width: 20 }\na.top -> b.bottom")
+    spread = [c for c in range(g.n_courses) if g.course_gauge[c] == 1][0]
+    ids = set(g.course_ids(spread).tolist())
+    holding = [k for k in range(s.n_slices)
+               if ids & set(s.stitch[s.start[k]:s.start[k] + s.length[k]]
+                            [s.state[s.start[k]:s.start[k] + s.length[k]] == sl.ACTIVE].tolist())]
+    assert len(holding) == 1 and s.shaping[holding[0]] == 0
+    assert ((g.wale_next[list(ids)] >= 0).sum(1) <= 1).all()  # the spread is in the parents
+
+
 def test_increase_children_are_expected_in_order():
     g, t, s = sliced("tube t { length: 2  width: [0: 3, 1: 4] }")
     assert sorted(g.wale_next[1].tolist()) == [7, 8]  # stitch 1 increases

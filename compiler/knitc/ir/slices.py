@@ -24,7 +24,7 @@ first of them in cycle order) and makes it ACTIVE.
 Counting shaping: a stitch with two next wales is one increase, a stitch with two
 previous wales one decrease (the merge), so each shaping event counts once, in the slice
 that knits its splitting or merged stitch (`stitch_shaping`); folds (a flat course opening
-into a tube or a tube collapsing into a flat course) do not count.
+into a tube or a tube collapsing into a flat course) and gauge changes do not count.
 
 A slice is `circular` when its cycle lies on both beds (a ring), else a flat cycle laid
 left to right.
@@ -104,7 +104,8 @@ def stitch_shaping(g: StitchGraph) -> np.ndarray:
     Folds are not shaping: a flat course opening into a tube (each stitch's two children on
     the two beds) or a tube closing into a flat course (each stitch merging a front and a
     back loop, a collapse closing) moves every loop straight across the beds, nothing
-    stretches along a bed. Cutting such a course into limited slices would leave half a
+    stretches along a bed; nor is the 1:2 spread (or 2:1 gather) of a gauge change, where
+    half-gauge loops meet full-gauge ones needle for needle. Cutting such a course into limited slices would leave half a
     closing waiting while the ring it belongs to is already zipped, which no layout of a
     ring can describe."""
     n_next = (g.wale_next >= 0).sum(1)
@@ -115,7 +116,12 @@ def stitch_shaping(g: StitchGraph) -> np.ndarray:
     opening = inc & ~circ & circ[k0] & (g.side[k0] != g.side[k1])
     p0, p1 = np.maximum(g.wale_prev[:, 0], 0), np.maximum(g.wale_prev[:, 1], 0)
     closing = dec & ~circ & circ[p0] & (g.side[p0] != g.side[p1])
-    return (inc & ~opening).astype(np.int8) + (dec & ~closing).astype(np.int8)
+    # a gauge change spreads loops 1:2 (or gathers them 2:1) without stretching either
+    gauge = g.course_gauge[g.course]
+    spread = inc & (gauge[k0] != gauge)
+    gather = dec & (gauge[p0] != gauge)
+    return (inc & ~opening & ~spread).astype(np.int8) + \
+        (dec & ~closing & ~gather).astype(np.int8)
 
 
 def decreasing(g: StitchGraph) -> np.ndarray:
