@@ -141,8 +141,9 @@ def generate(g: StitchGraph, sched: sc.Schedule, t: tr.Trace, *, machine: Machin
         _run(gen)
     except Unsupported as exc:
         diags.error("E602", f"cannot generate machine code: {exc}", gen.where_span,
-                    hint="the code generator does not plan this transfer yet; keep shaping "
-                         "within 4 needles per course and avoid gauge changes in one piece")
+                    hint="the transfer planner found no sequence of transfers within the "
+                         "machine's racking limit and free needles; allow more racking "
+                         "(`machine { racking: ... }`) or shape more gradually")
         return None
     for node, n in sorted(gen.split_fallbacks.items()):
         ids = np.nonzero(g.node == node)[0]
