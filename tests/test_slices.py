@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import test_stitch_graph
 from knitc.cli import main
 from knitc.driver import compile_file, compile_source, emit_json
 from knitc.ir import slices as sl
@@ -166,26 +167,8 @@ def test_short_row_joint_slices_hold_the_whole_ring():
                               "45e 46e 47e 48e 49e 50e 39a 40a 41a 42a 43a 44a"]
 
 
-SPLIT = """\
-tube trunk { length: 2  width: 4 }
-split fork { degree: 2 }
-tube left { length: 2  width: 2 }
-tube right { length: 2  width: 2 }
-trunk.top -> fork.base
-fork.branches[0] -> left.bottom
-fork.branches[1] -> right.bottom
-"""
-
-MERGE = """\
-tube left { length: 2  width: 2 }
-tube right { length: 2  width: 2 }
-split fork { degree: 2 }
-tube trunk { length: 2  width: 4 }
-left.top -> fork.branches[0]
-right.top -> fork.branches[1]
-fork.base -> trunk.bottom
-start left.bottom
-"""
+# the same small split and merge as the stitch-graph tests
+SPLIT, MERGE = test_stitch_graph.SPLIT, test_stitch_graph.MERGE
 
 
 def test_split_branches_open_fresh_slices():
