@@ -1,0 +1,403 @@
+"""Pattern queries (thesis ch. 5.3.2, Table 5.1): `where Q` evaluated to a stitch mask.
+
+A query selects stitches of the stitch graph; the patterning pass then writes instructions
+or actions on them. Everything here is vectorised: a query is a boolean mask over *all*
+stitches, combined with numpy set algebra, so a million-stitch garment costs a few array
+passes per query and never a Python loop per stitch (BFS rings of `neighbors` loop per
+ring, not per stitch).
+
+Coordinates (always per node, also for the global `before`/`after` layers):
+- `course` = course index within the stitch's node (0 = the node's first course, in
+  knitting order); `course_end` = the node's last course index.
+- `wale` = position across the course, counted so that `wales(0:3)` means "the first four
+  wales" on both kinds of course: on a flat course it is the rank of the stitch's needle
+  (left to right on the bed, whichever way the yarn travels that course); on a tubular
+  course it is the yarn-order position, i.e. front bed left to right, then back bed right
+  to left (counter-clockwise seen from above, the stitch graph's convention).
+  `wale_end` = the course length - 1, *per course*, so fractions and `end` follow shaping.
+- sided wales (`wales(R, side)`, `select(Rc, Rw, side)`): the needle rank of the stitch
+  among the stitches of its course on that side, left to right; the range applies to that
+  side's own extent. This is what makes `wales(0:3, back)` mean the back bed's four
+  leftmost wales on a tube instead of an empty set.
+
+Ranges (inclusive): a bound `v` that mentions `end` is absolute (`end - 1`); otherwise
+`v <= -1` counts from the end (`-1` = end, `-3` = end - 2), `0 < v < 1` is the fraction
+`v * end`, `-1 < v < 0` the fraction counted from the end (`-0.25` = `0.75 * end`) and
+anything else is an absolute index. A fractional start rounds up and a
+fractional stop rounds down (so `0:0.5` and `0.5:end` share only a stitch that falls
+exactly on the middle, as inclusive ranges must); a lone
+number (`courses(2)`) is the single index `round_half_up(v)`. `a:s:b` keeps every s-th
+index from the start; s must be a positive integer. A start after the stop selects nothing.
+
+Errors (a wrong query must not crash the compiler) become E7xx diagnostics and the whole
+query selects nothing: E701 unknown or not-yet-supported query, E702 bad range, E703 bad
+argument, E704 unknown name, E705 unknown node in `shape(name)`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from knitc.diagnostics import Diagnostics
+from knitc.ir.stitch_graph import StitchGraph
+from knitc.source import Span
+from knitc.syntax import ast
+
+SUPPORTED = ("all", "filter", "wales", "courses", "select", "side", "neighbors", "boundaries",
+             "named", "shape", "itf", "inverse")
+"""Query functions this module evaluates; the drawn ones (stretch, tile, img, noise, grids)
+belong to the grid pass and are reported as E701 here."""
+
+
+@dataclass
+class QueryEnv:
+    """What a query may refer to besides the graph: `#params` and `let`-bound selections.
+
+    A `let` value is either an already evaluated mask or the query AST it names (evaluated
+    lazily on the same node).
+    """
+
+    params: Mapping[str, object] = field(default_factory=dict)
+    lets: Mapping[str, np.ndarray | ast.Node] = field(default_factory=dict)
+
+
+class QueryError(Exception):
+    def __init__(self, code: str, message: str, span: Span, hint: str | None = None):
+        super().__init__(message)
+        self.code, self.message, self.span, self.hint = code, message, span, hint
+
+
+@dataclass(frozen=True)
+class Coords:
+    """Per-stitch query coordinates of a graph (see the module docstring)."""
+
+    course: np.ndarray
+    course_end: np.ndarray
+    wale: np.ndarray
+    wale_end: np.ndarray
+    swale: np.ndarray  # wale within (course, side), left to right
+    swale_end: np.ndarray
+    edge: np.ndarray  # bool: first/last course of its node, or an end of a flat course
+
+
+def _group_rank(keys: tuple[np.ndarray, ...], group: np.ndarray) -> tuple[np.ndarray,
+                                                                          np.ndarray]:
+    """Rank of each element within its group (ordered by `keys`), and the group size."""
+    n = group.shape[0]
+    order = np.lexsort(keys + (group,))
+    g_sorted = group[order]
+    starts = np.ones(n, dtype=bool)
+    starts[1:] = g_sorted[1:] != g_sorted[:-1]
+    first = np.maximum.accumulate(np.where(starts, np.arange(n), 0))
+    rank = np.empty(n, dtype=np.int64)
+    rank[order] = np.arange(n) - first
+    sizes = np.zeros(n, dtype=np.int64)
+    _, inv, counts = np.unique(group, return_inverse=True, return_counts=True)
+    sizes[:] = counts[inv.ravel()]
+    return rank, sizes
+
+
+def coords(g: StitchGraph) -> Coords:
+    """Compute the per-node course/wale coordinates of every stitch (vectorised)."""
+    n = g.n_stitches
+    if n == 0:
+        z = np.zeros(0, dtype=np.int64)
+        return Coords(z, z, z, z, z, z, np.zeros(0, dtype=bool))
+    cids = np.arange(g.n_courses)
+    crank, csize = _group_rank((cids,), g.course_node.astype(np.int64))
+    course = crank[g.course]
+    course_end = (csize - 1)[g.course]
+    pos = np.arange(n) - g.course_start[g.course]
+    circ = g.course_circular[g.course]
+    nrank, _ = _group_rank((np.arange(n), g.needle.astype(np.int64)), g.course.astype(np.int64))
+    wale = np.where(circ, pos, nrank)
+    wale_end = (g.course_len[g.course] - 1).astype(np.int64)
+    key = g.course.astype(np.int64) * 2 + g.side.astype(np.int64)
+    srank, ssize = _group_rank((np.arange(n), g.needle.astype(np.int64)), key)
+    edge = (course == 0) | (course == course_end) | (~circ & ((wale == 0) | (wale == wale_end)))
+    return Coords(course, course_end, wale, wale_end, srank, ssize - 1, edge)
+
+
+def _neighbour_table(g: StitchGraph) -> np.ndarray:
+    """(N, 6) course and wale neighbours of each stitch (-1 = none); links are mutual."""
+    return np.column_stack([g.cprev, g.cnext, g.wale_prev, g.wale_next]).astype(np.int64)
+
+
+def grow(g: StitchGraph, sel: np.ndarray, domain: np.ndarray,
+         nbrs: np.ndarray | None = None) -> np.ndarray:
+    """`sel` plus every stitch of `domain` one course or wale link away from it."""
+    if nbrs is None:
+        nbrs = _neighbour_table(g)
+    out = sel.copy()
+    for col in nbrs.T:
+        ok = col >= 0
+        src = np.nonzero(ok)[0]
+        out[src] |= sel[col[ok]]
+    return out & domain
+
+
+class _Eval:
+    def __init__(self, g: StitchGraph, node: int | None, env: QueryEnv):
+        self.g = g
+        self.env = env
+        self.c = coords(g)
+        self.domain = (g.node == node) if node is not None else np.ones(g.n_stitches, bool)
+        self._nbrs: np.ndarray | None = None
+
+    # -- selections
+    def query(self, q: ast.Node | None) -> np.ndarray:
+        if q is None:
+            return self.domain.copy()
+        if isinstance(q, ast.Binary) and q.op in ("or", "and", "-"):
+            a, b = self.query(q.left), self.query(q.right)
+            return {"or": a | b, "and": a & b, "-": a & ~b}[q.op]
+        if isinstance(q, ast.Unary) and q.op == "not":
+            return self.domain & ~self.query(q.operand)
+        if isinstance(q, ast.Name):
+            val = self.env.lets.get(q.id)
+            if val is None:
+                raise QueryError("E704", f"unknown selection `{q.id}`", q.span,
+                                 hint="bind it first with `let NAME = QUERY`")
+            if isinstance(val, np.ndarray):
+                return val.astype(bool) & self.domain
+            return self.query(val)
+        if isinstance(q, ast.Call) and isinstance(q.func, ast.Attr):
+            base = self.query(q.func.obj)
+            return self.call(q.func.name.name, q, base)
+        if isinstance(q, ast.Call) and isinstance(q.func, ast.Name):
+            return self.call(q.func.id, q, None)
+        raise QueryError("E701", "this expression is not a query", q.span,
+                         hint="queries are calls such as `wales(0:3)` combined with "
+                              "`or`, `and`, `not` and `-`")
+
+    def call(self, name: str, q: ast.Call, base: np.ndarray | None) -> np.ndarray:
+        args = [a for a in q.args if not isinstance(a, ast.KwArg)]
+        if name not in SUPPORTED:
+            raise QueryError("E701", f"query `{name}` is not supported by the query "
+                                     "evaluator", q.func.span,
+                             hint="drawn queries (stretch, tile, img, noise, grids) are "
+                                  "applied by the grid layers")
+        if base is not None and name not in ("neighbors", "boundaries", "inverse"):
+            raise QueryError("E701", f"`.{name}(...)` cannot be chained on a selection",
+                             q.func.span, hint="combine selections with `and`")
+        c, d = self.c, self.domain
+        if name == "all":
+            return d.copy()
+        if name == "inverse":
+            if base is None:
+                raise QueryError("E701", "`inverse()` needs a selection: `Q.inverse()`",
+                                 q.span)
+            return d & ~base
+        if name == "filter":
+            v = self.pred(args[0])
+            return d & np.broadcast_to(np.asarray(v, dtype=bool), d.shape)
+        if name == "courses":
+            return d & self.range(args[0], c.course, c.course_end)
+        if name == "wales":
+            if len(args) == 2:
+                s = self.side_arg(args[1])
+                return d & (self.g.side == s) & self.range(args[0], c.swale, c.swale_end)
+            return d & self.range(args[0], c.wale, c.wale_end)
+        if name == "select":
+            rows = self.range(args[0], c.course, c.course_end)
+            if len(args) == 3:
+                s = self.side_arg(args[2])
+                return d & rows & (self.g.side == s) & self.range(args[1], c.swale,
+                                                                    c.swale_end)
+            return d & rows & self.range(args[1], c.wale, c.wale_end)
+        if name == "side":
+            return d & (self.g.side == self.side_arg(args[0]))
+        if name == "neighbors":
+            if base is None:
+                raise QueryError("E701", "`neighbors(R)` needs a selection to grow from",
+                                 q.span, hint="write `Q.neighbors(R)`, e.g. "
+                                              "`wales(0).neighbors(1)`")
+            return self.neighbors(base, args[0] if args else None)
+        if name == "boundaries":
+            if base is None:
+                return d & c.edge
+            outside = grow(self.g, d & ~base, d, self.nbrs()) & ~(d & ~base)
+            return base & (c.edge | outside)
+        if name == "named":
+            named = np.zeros(self.g.n_courses, dtype=bool)
+            named[list(self.g.course_names)] = True
+            return d & named[self.g.course]
+        if name == "shape":
+            sname = self.string(args[0])
+            if sname not in self.g.node_names:
+                raise QueryError("E705", f"unknown node `{sname}`", args[0].span)
+            return d & (self.g.node == self.g.node_names.index(sname))
+        # itf
+        iname = self.string(args[0])
+        hit = np.zeros(self.g.n_courses, dtype=bool)
+        for cid, names in self.g.course_names.items():
+            if any(nm == iname or nm.split(".", 1)[-1] == iname for nm in names):
+                hit[cid] = True
+        return d & hit[self.g.course]
+
+    def nbrs(self) -> np.ndarray:
+        if self._nbrs is None:
+            self._nbrs = _neighbour_table(self.g)
+        return self._nbrs
+
+    def neighbors(self, base: np.ndarray, arg: ast.Node | None) -> np.ndarray:
+        """Rings of graph distance (course + wale links, within the layer's stitches)."""
+        if arg is None:
+            lo, hi = 1, 1
+        elif isinstance(arg, ast.Range):
+            if arg.step is not None:
+                raise QueryError("E702", "`neighbors` takes a ring range without a step",
+                                 arg.span)
+            lo, hi = self.int_scalar(arg.start), self.int_scalar(arg.stop)
+        else:
+            lo, hi = 1, self.int_scalar(arg)
+        if lo < 0 or hi < lo:
+            raise QueryError("E702", f"bad ring range {lo}:{hi}", arg.span if arg else None,
+                             hint="rings are counted from 0 (the selection itself) upwards")
+        d = self.domain
+        dist = np.where(base & d, 0, -1)
+        cur = base & d
+        for k in range(1, hi + 1):
+            nxt = grow(self.g, cur, d, self.nbrs())
+            dist[nxt & (dist < 0)] = k
+            if np.array_equal(nxt, cur):
+                break
+            cur = nxt
+        return (dist >= lo) & (dist <= hi)
+
+    # -- arguments
+    def side_arg(self, a: ast.Node) -> int:
+        if isinstance(a, ast.Name) and a.id in ("front", "back"):
+            return 0 if a.id == "front" else 1
+        raise QueryError("E703", "a side is `front` or `back`", a.span)
+
+    def string(self, a: ast.Node) -> str:
+        if isinstance(a, ast.String):
+            return a.value
+        if isinstance(a, ast.Name) and a.id not in self.env.lets:
+            return a.id
+        raise QueryError("E703", "expected a name in quotes", a.span)
+
+    def int_scalar(self, e: ast.Node) -> int:
+        v, uses_end = self.bound(e, None)
+        if uses_end or float(v) != int(v):
+            raise QueryError("E702", "expected a whole number", e.span)
+        return int(v)
+
+    def bound(self, e: ast.Node, end: np.ndarray | None) -> tuple[object, bool]:
+        """Arithmetic on a range bound; returns (value, whether it mentions `end`)."""
+        if isinstance(e, ast.Number):
+            return e.value, False
+        if isinstance(e, ast.Name) and e.id == "end":
+            if end is None:
+                raise QueryError("E702", "`end` cannot be used here", e.span)
+            return end, True
+        if isinstance(e, ast.ParamRef):
+            v = self.env.params.get(e.name)
+            if isinstance(v, bool) or not isinstance(v, int | float):
+                raise QueryError("E704", f"parameter `#{e.name}` is not a known number",
+                                 e.span)
+            return v, False
+        if isinstance(e, ast.Unary) and e.op == "-":
+            v, u = self.bound(e.operand, end)
+            return -v, u  # type: ignore[operator]
+        if isinstance(e, ast.Binary) and e.op in ("+", "-", "*", "/"):
+            a, ua = self.bound(e.left, end)
+            b, ub = self.bound(e.right, end)
+            if e.op == "/" and np.any(np.asarray(b) == 0):
+                raise QueryError("E702", "division by zero in a range", e.span)
+            with np.errstate(all="ignore"):
+                out = {"+": np.add, "-": np.subtract, "*": np.multiply,
+                       "/": np.true_divide}[e.op](a, b)
+            return out, ua or ub
+        raise QueryError("E702", "a range bound is a number, `end` or `#param` arithmetic",
+                         e.span)
+
+    @staticmethod
+    def _resolve(v: object, uses_end: bool, end: np.ndarray) -> np.ndarray:
+        v = np.asarray(v, dtype=float)
+        if uses_end:
+            return np.broadcast_to(v, end.shape)
+        frac = (v > -1) & (v < 1) & (v != 0)
+        return np.where(frac, np.where(v < 0, 1 + v, v) * end, np.where(v < 0, v + end + 1, v))
+
+    def range(self, a: ast.Node, idx: np.ndarray, end: np.ndarray) -> np.ndarray:
+        """Mask of stitches whose coordinate `idx` lies in the range `a` (see module doc)."""
+        if not isinstance(a, ast.Range):
+            v = self._resolve(*self.bound(a, end), end)
+            return idx == np.floor(v + 0.5)
+        lo = np.ceil(self._resolve(*self.bound(a.start, end), end) - 1e-9)
+        hi = np.floor(self._resolve(*self.bound(a.stop, end), end) + 1e-9)
+        step = 1
+        if a.step is not None:
+            s, uses_end = self.bound(a.step, None)
+            if uses_end or float(s) != math.floor(float(s)) or s < 1:  # type: ignore[operator]
+                raise QueryError("E702", f"a range step must be a positive whole number, "
+                                         f"got {s}", a.step.span)
+            step = int(s)  # type: ignore[call-overload]
+        m = (idx >= lo) & (idx <= hi)
+        if step > 1:
+            m &= np.mod(idx - lo, step) == 0
+        return m
+
+    # -- filter predicates
+    def pred(self, e: ast.Node) -> object:
+        """Vectorised evaluation of a `filter` predicate over the stitch fields."""
+        c = self.c
+        if isinstance(e, ast.Number | ast.Bool):
+            return e.value
+        if isinstance(e, ast.ParamRef):
+            v = self.env.params.get(e.name)
+            if v is None:
+                raise QueryError("E704", f"unknown parameter `#{e.name}`", e.span)
+            return v
+        if isinstance(e, ast.Name):
+            fields_ = {"course": c.course, "wale": c.wale, "course_end": c.course_end,
+                       "wale_end": c.wale_end, "side": self.g.side.astype(np.int64),
+                       "gauge": self.g.course_gauge[self.g.course].astype(np.int64),
+                       "node": self.g.node.astype(np.int64),
+                       "index": np.arange(self.g.n_stitches)}
+            if e.id in fields_:
+                return fields_[e.id]
+            if e.id in ("front", "back"):
+                return 0 if e.id == "front" else 1
+            raise QueryError("E704", f"`{e.id}` is not a stitch field", e.span,
+                             hint="fields: " + ", ".join(fields_))
+        if isinstance(e, ast.Unary):
+            v = np.asarray(self.pred(e.operand))
+            return ~v.astype(bool) if e.op == "not" else -v
+        if isinstance(e, ast.Binary):
+            a, b = np.asarray(self.pred(e.left)), np.asarray(self.pred(e.right))
+            if e.op in ("/", "%") and np.any(b == 0):
+                raise QueryError("E703", "division by zero in a filter", e.span)
+            ops = {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.true_divide,
+                   "%": np.mod, "^": np.power, "==": np.equal, "!=": np.not_equal,
+                   "<": np.less, "<=": np.less_equal, ">": np.greater,
+                   ">=": np.greater_equal}
+            if e.op in ("and", "or"):
+                f = np.logical_and if e.op == "and" else np.logical_or
+                return f(a.astype(bool), b.astype(bool))
+            if e.op in ops:
+                return ops[e.op](a, b)
+        raise QueryError("E703", "a filter predicate uses numbers, stitch fields and "
+                                 "arithmetic or comparisons", e.span)
+
+
+def evaluate_query(g: StitchGraph, node: int | None, q: ast.Node | None,
+                   env: QueryEnv | None, diags: Diagnostics) -> np.ndarray:
+    """Boolean mask (length `g.n_stitches`) of the stitches `q` selects.
+
+    `node` is the index of the layer's node in `g.node_names` (the result is then a subset
+    of that node's stitches) or None for the global `before`/`after` layers. `q` None means
+    `all()`. Errors are reported in `diags` and select nothing.
+    """
+    ev = _Eval(g, node, env or QueryEnv())
+    try:
+        return np.asarray(ev.query(q), dtype=bool) & ev.domain
+    except QueryError as err:
+        diags.error(err.code, err.message, err.span, hint=err.hint)
+        return np.zeros(g.n_stitches, dtype=bool)
