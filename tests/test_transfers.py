@@ -123,9 +123,24 @@ def replay(prog: MachineProgram, start: int, loops: dict[Pos, set[int]],
         assert where.get(s) == t, f"stitch {s} ends on {where.get(s)}, not {t}"
 
 
-def run(pb: Problem, carrier_at: float | None = None, **kw) -> Bed:
-    """Set up, move, check with `replay` and knitc's simulation; returns the bed, whose
-    loops are dropped at the end of its program (`held` is what the move left)."""
+@dataclass
+class Done:
+    """A checked move: the bed (its program finished: loops dropped, carrier out), the ops
+    the move emitted, and the loops it left on each needle."""
+
+    bed: Bed
+    moved: list
+    held: dict[Pos, int]
+
+    def ops(self, kind: str) -> list:
+        return [op for op in self.moved if op.kind == kind]
+
+    def racks(self) -> list:
+        return [op.value for op in self.ops("rack")]
+
+
+def run(pb: Problem, carrier_at: float | None = None, **kw) -> Done:
+    """Set up, move, check with `replay` and knitc's simulation."""
     bed = make_bed(pb, carrier_at)
     start = len(bed.prog.ops)
     loops = {p: {s} for p, s in pb.start.items()}
@@ -133,18 +148,11 @@ def run(pb: Problem, carrier_at: float | None = None, **kw) -> Bed:
     target = {s: pb.target.get(s, p) for p, s in pb.start.items()}
     replay(bed.prog, start, loops, target, pb.max_rack)
     assert {s: bed.where[s] for s in target} == target  # the bed model agrees
-    bed.held = {p: k for p, k in bed.loops.items() if k}  # type: ignore[attr-defined]
+    assert bed.rack == 0
+    done = Done(bed, bed.prog.ops[start:], {p: k for p, k in bed.loops.items() if k})
     finish(bed)
     assert [f for f in simulate(bed.prog, max_loops=3) if f.is_error] == []
-    return bed
-
-
-def ops(bed: Bed, kind: str) -> list:
-    return [op for op in bed.prog.ops if op.kind == kind]
-
-
-def racks(bed: Bed) -> list:
-    return [op.value for op in ops(bed, "rack")]
+    return done
 
 
 def tube(front: list[int], back: list[int], first: int = 0) -> dict[Pos, int]:
@@ -164,18 +172,18 @@ def cycle_target(start: dict[Pos, int], slots: list[Pos], k: int) -> dict[int, P
 def test_a_shift_within_the_racking_limit_is_one_round():
     pb = Problem(tube(list(range(10, 16)), []), {})
     pb.target = {s: ("f", p[1] + 3) for p, s in pb.start.items()}
-    bed = run(pb)
-    assert racks(bed) == [3, 0]
-    assert all(op.needle2.bed in ("bs", "f") for op in ops(bed, "xfer"))  # full gauge: sliders
+    done = run(pb)
+    assert done.racks() == [3, 0]
+    assert all(op.needle2.bed in ("bs", "f") for op in done.ops("xfer"))  # full gauge: sliders
 
 
 @pytest.mark.parametrize("dist", [5, 9, 13, 26])
 def test_shifts_beyond_the_racking_limit_go_in_rounds(dist):
     pb = Problem(tube(list(range(4, 12)), []), {}, needles=60)
     pb.target = {s: ("f", p[1] + dist) for p, s in pb.start.items()}
-    bed = run(pb)
-    assert max(abs(r) for r in racks(bed)) <= 4
-    assert len([r for r in racks(bed) if r]) == -(-dist // 4)  # one racking per round
+    done = run(pb)
+    assert max(abs(r) for r in done.racks()) <= 4
+    assert len([r for r in done.racks() if r]) == -(-dist // 4)  # one racking per round
 
 
 def test_a_flat_decrease_stacks_the_edge_loops_on_their_partners():
@@ -183,16 +191,16 @@ def test_a_flat_decrease_stacks_the_edge_loops_on_their_partners():
     start = tube(list(range(10, 18)), [])
     goal = [12, 12, 13, 14, 15, 16, 17, 17]
     pb = Problem(start, {s: ("f", goal[s]) for s in range(8)})
-    bed = run(pb)
-    assert bed.held[("f", 12)] == 2 and bed.held[("f", 17)] == 2
+    done = run(pb)
+    assert done.held[("f", 12)] == 2 and done.held[("f", 17)] == 2
 
 
 def test_a_decrease_onto_an_unmoving_loop():
     start = tube(list(range(10, 16)), [])
     pb = Problem(start, {0: ("f", 11)})  # only loop 0 moves, onto loop 1
-    bed = run(pb)
-    assert bed.held[("f", 11)] == 2
-    assert len(ops(bed, "xfer")) == 2
+    done = run(pb)
+    assert done.held[("f", 11)] == 2
+    assert len(done.ops("xfer")) == 2
 
 
 def test_a_loop_never_passes_an_unmoving_loop_of_its_bed():
@@ -213,6 +221,16 @@ def test_loops_of_another_piece_bound_the_free_range():
         move(make_bed(pb), pb.moves())
 
 
+def test_a_free_range_keeps_the_loops_inside_it():
+    start = tube(list(range(20, 26)), list(range(25, 19, -1)))
+    pb = Problem(start, cycle_target(start, list(start), 2))
+    done = run(pb, free=(18, 27))
+    used = {n.index for op in done.ops("xfer") for n in (op.needle, op.needle2)}
+    assert min(used) >= 18 and max(used) <= 27
+    with pytest.raises(Unsupported, match="free needles"):
+        move(make_bed(pb), pb.moves(), free=(21, 30))
+
+
 # ---- bed changes --------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("dist", [6, 9, 14, 20])
@@ -220,8 +238,8 @@ def test_cross_bed_moves_beyond_the_racking_limit(dist):
     # a flat piece on the front whose loops go to the back, `dist` needles to the left
     pb = Problem(tube(list(range(30, 36)), []), {}, needles=90)
     pb.target = {s: ("b", p[1] - dist) for p, s in pb.start.items()}
-    bed = run(pb)
-    assert max(abs(r) for r in racks(bed)) <= 4
+    done = run(pb)
+    assert max(abs(r) for r in done.racks()) <= 4
 
 
 def test_a_fold_rolls_loops_around_the_corner():
@@ -232,8 +250,8 @@ def test_a_fold_rolls_loops_around_the_corner():
     target = {s: ("f", p[1] + 2) for p, s in left.items()}
     target.update({10 + i: ("b", 13 - i) for i in range(10)})
     pb = Problem({**left, **right}, target)
-    bed = run(pb)
-    assert all(abs(r) <= 4 for r in racks(bed))
+    done = run(pb)
+    assert all(abs(r) <= 4 for r in done.racks())
 
 
 @pytest.mark.parametrize("half", [False, True])
@@ -244,29 +262,29 @@ def test_loops_travel_under_unmoving_loops_on_the_other_bed(half):
     left = {("f", 2 + step * i): 9 - i for i in range(10)}
     right = {("f", 2 + step * (12 + i)): 10 + i for i in range(10)}
     target = {10 + i: ("b", 2 + step * (9 - i) + (1 if half else 0)) for i in range(10)}
-    bed = run(Problem({**left, **right}, target))
-    assert bed.held == {**{p: 1 for p in left}, **{t: 1 for t in target.values()}}
+    done = run(Problem({**left, **right}, target))
+    assert done.held == {**{p: 1 for p in left}, **{t: 1 for t in target.values()}}
     if half:
-        assert all(op.needle2.bed in ("f", "b") for op in ops(bed, "xfer"))
+        assert all(op.needle2.bed in ("f", "b") for op in done.ops("xfer"))
 
 
 @pytest.mark.parametrize("k", [1, 2, 3, -1, -2])
 def test_a_tube_rotation_rolls_k_loops_around_each_end(k):
     start = tube(list(range(20, 30)), list(range(29, 19, -1)))
     pb = Problem(start, cycle_target(start, list(start), k))
-    bed = run(pb)
+    done = run(pb)
     # k loops changed bed at each end
     changed = [s for p, s in start.items() if pb.target[s][0] != p[0]]
     assert len(changed) == 2 * abs(k)
-    assert bed.rack == 0
+    assert done.bed.rack == 0
 
 
 def test_a_corner_decrease_onto_the_other_bed():
     start = tube(list(range(20, 26)), list(range(25, 19, -1)))
     pb = Problem(start, {5: ("b", 25), 11: ("f", 20)})  # the two corner loops stack
-    bed = run(pb)
-    assert bed.held[("b", 25)] == 2 and bed.held[("f", 20)] == 2
-    assert len(ops(bed, "xfer")) == 2  # directly, at racking 0
+    done = run(pb)
+    assert done.held[("b", 25)] == 2 and done.held[("f", 20)] == 2
+    assert len(done.ops("xfer")) == 2  # directly, at racking 0
 
 
 def test_windings_pick_the_nearer_end():
@@ -281,9 +299,9 @@ def test_windings_pick_the_nearer_end():
 def test_rib_like_moves_go_straight_across():
     start = tube(list(range(10, 18)), [])
     pb = Problem(start, {1: ("b", 11), 3: ("b", 13), 5: ("b", 15)})  # every other loop back
-    bed = run(pb)
-    assert racks(bed) == []  # all at racking 0
-    assert len(ops(bed, "xfer")) == 3
+    done = run(pb)
+    assert done.racks() == []  # all at racking 0
+    assert len(done.ops("xfer")) == 3
 
 
 # ---- gauges -------------------------------------------------------------------------------------
@@ -292,29 +310,29 @@ def test_half_gauge_parks_on_the_free_hooks():
     start = tube(list(range(10, 30, 2)), list(range(29, 9, -2)))
     pb = Problem(start, {})
     pb.target = {s: (p[0], p[1] + 6) for p, s in start.items()}
-    bed = run(pb)
-    beds = {n.bed for op in ops(bed, "xfer") for n in (op.needle, op.needle2)}
+    done = run(pb)
+    beds = {n.bed for op in done.ops("xfer") for n in (op.needle, op.needle2)}
     assert beds == {"f", "b"}  # no slider
-    assert all(r % 2 == 0 for r in racks(bed))
+    assert all(r % 2 == 0 for r in done.racks())
 
 
 def test_full_gauge_parks_on_the_sliders():
     start = tube(list(range(10, 20)), list(range(19, 9, -1)))
     pb = Problem(start, {s: (p[0], p[1] + 6) for p, s in start.items()})
-    bed = run(pb)
-    assert {op.needle2.bed for op in ops(bed, "xfer")} >= {"fs", "bs"}
+    done = run(pb)
+    assert {op.needle2.bed for op in done.ops("xfer")} >= {"fs", "bs"}
     # the same flat problem in half gauge uses hooks, forced full gauge uses sliders
     flat = Problem(tube(list(range(10, 20, 2)), []), {})
     flat.target = {s: ("f", p[1] + 4) for p, s in flat.start.items()}
-    assert "bs" not in {op.needle2.bed for op in ops(run(flat), "xfer")}
-    assert "bs" in {op.needle2.bed for op in ops(run(flat, gauge=1), "xfer")}
+    assert "bs" not in {op.needle2.bed for op in run(flat).ops("xfer")}
+    assert "bs" in {op.needle2.bed for op in run(flat, gauge=1).ops("xfer")}
 
 
 def test_half_gauge_tube_rotation():
     start = tube(list(range(20, 40, 2)), list(range(39, 19, -2)))
     pb = Problem(start, cycle_target(start, list(start), 2))
-    bed = run(pb)
-    assert "bs" not in {op.needle2.bed for op in ops(bed, "xfer")}
+    done = run(pb)
+    assert "bs" not in {op.needle2.bed for op in done.ops("xfer")}
 
 
 # ---- carriers -----------------------------------------------------------------------------------
@@ -323,12 +341,10 @@ def test_a_carrier_inside_the_shaping_range_is_parked_first():
     # an increase at the right edge: the loops move right across the carrier's position
     start = tube(list(range(10, 16)), [])
     pb = Problem(start, {s: ("f", p[1] + 2) for p, s in start.items()})
-    bed = run(pb, carrier_at=12.5)
-    misses = [op for op in ops(bed, "miss") if op.needle.index != 12]
-    assert len(misses) == 1
-    park = misses[0]
+    done = run(pb, carrier_at=12.5)
+    [park] = done.ops("miss")
     assert park.needle.index + 0.5 * park.dir > 17 or park.needle.index + 0.5 * park.dir < 10
-    assert bed.carrier_at[CARRIER] == park.needle.index + 0.5 * park.dir
+    assert done.bed.carrier_at[CARRIER] == park.needle.index + 0.5 * park.dir
 
 
 def test_a_carrier_outside_the_moves_stays():
@@ -410,6 +426,6 @@ def test_plans_run_clean_on_the_independent_machine():
         (Problem(flat, {s: ("f", p[1] + 2) for p, s in flat.items()}), 13.5),
         (Problem(flat, {s: ("b", p[1] - 9) for p, s in flat.items()}), None),
     ]:
-        texts.append(write_knitout(run(pb, carrier_at=carrier).prog))
+        texts.append(write_knitout(run(pb, carrier_at=carrier).bed.prog))
     for report in run_oracle_on_text(texts):
         assert_clean(report)
