@@ -665,3 +665,16 @@ def test_generated_designs_run_clean_everywhere():
     collect()
     for report in run_oracle_on_text(texts):
         assert_clean(report)
+
+
+def test_ending_stitches_whose_needles_a_later_slice_reuses_are_cast_off_first():
+    # found by hypothesis: the schedule put the back half of the last round on needles the
+    # front half's ending loops still held; those loops are now bound off before it
+    src = ("machine { gauge: half  cast_on: interlock  cast_off: pickup  increase: kickback }\n"
+           "tube s {  length: 2  width: [0: 3, 1: 4]  shaper: uniform }\nstart s.bottom\n")
+    r = compile_source(src, "t.knit", until="machine")
+    assert r.program is not None, r.diagnostics.render()
+    assert not [f for f in simulate(r.program) if f.is_error]
+    [report] = run_oracle_on_text([write_knitout(r.program)])
+    assert_clean(report, allow=["Long_Float_Warning"] if any(
+        d.code == "W803" for d in r.diagnostics) else [])

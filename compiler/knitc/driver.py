@@ -1,9 +1,10 @@
 """The pipeline, readable in one place.
 
-    source ──parse──▶ AST ──resolve + verify──▶ Skeleton ──shape──▶ StitchGraph ──trace──▶ Trace
+    source ──parse──▶ AST ──resolve + verify──▶ Skeleton ──shape──▶ StitchGraph ──pattern──▶
+      StitchGraph ──trace──▶ Trace
       ──slice──▶ Slices ──schedule──▶ Schedule ──codegen──▶ MachineProgram
       ──simulate──▶ diagnostics;  MachineProgram ──emit──▶ Knitout
-    (patterning and DAT come later)
+    (DAT comes later)
 
 Each stage is a pure function of the previous IR plus a `Diagnostics` collection; the driver
 stops after the first stage that reported errors, because later stages would only repeat
@@ -25,6 +26,7 @@ from knitc.ir import slices as sl
 from knitc.ir import stitch_graph as sg
 from knitc.ir import trace as tr
 from knitc.passes.codegen import generate, options_from_skeleton
+from knitc.passes.pattern import apply_patterns
 from knitc.passes.resolve import parse_define, resolve
 from knitc.passes.schedule import schedule
 from knitc.passes.shape import build_stitch_graph
@@ -84,8 +86,10 @@ def compile_source(text: str, path: str, *, defines: list[str] = (), until: str 
     graph = build_stitch_graph(skel, diags)
     if graph is None:
         return _finish(result, werror)
+    graph = apply_patterns(skel, graph, diags)
+    sg.check(graph)  # the verifier between passes: a violation is a knitc bug
     result.graph, result.stage_reached = graph, "stitch-graph"
-    if until == "stitch-graph":
+    if until == "stitch-graph" or diags.has_errors:
         return _finish(result, werror)
     trace = trace_courses(graph)
     problems = tr.verify(graph, trace)

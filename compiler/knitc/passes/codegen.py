@@ -42,7 +42,7 @@ from knitc.ir import skeleton as sk
 from knitc.ir import trace as tr
 from knitc.ir.machine import Machine, MachineProgram
 from knitc.ir.slices import ACTIVE
-from knitc.ir.stitch_graph import COURSE_KINDS, StitchGraph
+from knitc.ir.stitch_graph import COURSE_KINDS, INSTRUCTIONS, StitchGraph
 from knitc.passes import casting as cast
 from knitc.passes.bed import BEDS, Bed, Pos, Unsupported
 from knitc.passes.transfers import move
@@ -112,6 +112,12 @@ class _Gen:
     carrier_of: dict[int, int] = field(default_factory=dict)
     """Yarns in action -> their carrier."""
     presser: str = "off"
+    unlowered: Counter = field(default_factory=Counter)
+    """(node, instruction) -> stitches knitted plain because the instruction is not lowered."""
+    reverse_conflicts: Counter = field(default_factory=Counter)
+    """Nodes -> purls knitted plain because the facing needle holds fabric (full-gauge tube)."""
+    course_visits: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    """The visits of the course being knitted."""
     split_fallbacks: Counter = field(default_factory=Counter)
     """Nodes -> split increases that had to use a kickback (no free needle to split to)."""
     warned: set[str] = field(default_factory=set)
@@ -145,6 +151,16 @@ def generate(g: StitchGraph, sched: sc.Schedule, t: tr.Trace, *, machine: Machin
                          "machine's racking limit and free needles; allow more racking "
                          "(`machine { racking: ... }`) or shape more gradually")
         return None
+    for node, n in sorted(gen.reverse_conflicts.items()):
+        diags.warning("W603", f"{n} purl stitch(es) of `{g.node_names[node]}` are knitted "
+                      "plain: the needle facing them holds another loop (on a full-gauge "
+                      "tube, the other side's fabric)", _node_span(gen, node),
+                      hint="knit this node in half gauge (`gauge: half`) to leave the "
+                           "facing needles empty for reverse stitches")
+    for (node, instr), n in sorted(gen.unlowered.items()):
+        diags.warning("W604", f"{n} `{instr}` stitch(es) of `{g.node_names[node]}` are "
+                      f"knitted plain: `{instr}` is not lowered to machine operations yet",
+                      _node_span(gen, node), hint="only K and P are knitted as written today")
     for node, n in sorted(gen.split_fallbacks.items()):
         ids = np.nonzero(g.node == node)[0]
         diags.warning("W602", f"{n} split increase(s) of `{g.node_names[node]}` use a kickback "
@@ -154,6 +170,11 @@ def generate(g: StitchGraph, sched: sc.Schedule, t: tr.Trace, *, machine: Machin
                       hint="split increases need the facing needle free: use half gauge, "
                            "or `increase: kickback`")
     return prog
+
+
+def _node_span(gen: _Gen, node: int) -> Span | None:
+    ids = np.nonzero(gen.g.node == node)[0]
+    return gen.bed.span(int(ids[0])) if ids.size else None
 
 
 def _run(gen: _Gen) -> None:
@@ -184,6 +205,7 @@ def _run(gen: _Gen) -> None:
             _place(gen, aligned, represented, int(ids[0]))
         if v0 == course_bounds[ci]:  # a course begins
             chunk = np.arange(course_bounds[ci], course_bounds[ci + 1])
+            gen.course_visits = chunk
             ci += 1
             primary = {}
             yarn = int(t.yarn[v0])
@@ -211,6 +233,17 @@ def _run(gen: _Gen) -> None:
         catch = []
         if int(sub[-1]) + 1 == course_bounds[ci]:  # the course is done
             _finish_course(gen, ctx, chunk, carrier, free)
+        else:
+            # Ending stitches wait for the course's cast-off (one chain around it), unless
+            # the schedule lets a later slice of the course knit on one of their needles:
+            # then this slice gets its own cast-off pass (ch. 6.8), with its own tail.
+            ends = [int(x) for x in ids if g.wale_next[x, 0] < 0]
+            rest = t.stitch[int(sub[-1]) + 1:course_bounds[ci]]
+            taken = {gen.pos(int(x)) for x in rest}
+            if ends and any(gen.bed.where.get(x) in taken for x in ends):
+                left, last_dir = _cast_off(gen, ctx, sub, ends)
+                if left >= 0:
+                    _tail_and_drop(ctx, left, last_dir)
     leftover = [pos for pos, n in gen.bed.loops.items() if n > 0]
     if leftover:
         raise Unsupported(f"{len(leftover)} loops would be left on the needles")
@@ -221,7 +254,7 @@ def _finish_course(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, carrier: int,
     """Cast off what ends, end the yarn if it ends."""
     g, t = gen.g, gen.t
     ids = t.stitch[chunk]
-    ends = [int(s) for s in ids if g.wale_next[s, 0] < 0]
+    ends = [int(s) for s in ids if g.wale_next[s, 0] < 0 and int(s) in gen.bed.where]
     left, last_dir = _cast_off(gen, ctx, chunk, ends) if ends else (-1, 0)
     if t.flags[chunk[-1]] & tr.END:
         tail_pos = cast.tail(ctx, left, last_dir) if left >= 0 else None
@@ -426,6 +459,11 @@ def _action(gen: _Gen, ctx: cast.Ctx, s: int, d: int, inc: tuple | None) -> Acti
         cast.emit(ctx, "miss", d, pos, s)
 
     if inc is None:
+        instr = INSTRUCTIONS[int(gen.g.instr[s])]
+        if instr == "P":
+            return _purl(gen, ctx, s, d, pos, plain) or Action(s, main=[knit])
+        if instr != "K":
+            gen.unlowered[(int(gen.g.node[s]), instr)] += 1
         return Action(s, main=[knit])
     if inc[0] == "kickback":
         return Action(s, main=[kickback])
@@ -434,6 +472,39 @@ def _action(gen: _Gen, ctx: cast.Ctx, s: int, d: int, inc: tuple | None) -> Acti
     _, target, sibling = inc
     return Action(s, main=[lambda: _split(gen, ctx, s, d, target, sibling)],
                   post=[lambda: _unsplit(gen, target, sibling)])
+
+
+def _purl(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, number: int) -> Action | None:
+    """P: a knit made from the other bed (ch. 4.2's lowering): the loop is transferred to the
+    facing needle (pre), knitted there (main) and the new loop transferred back (post). The
+    facing needle must be empty: always on a flat piece, on a tube only in half gauge; else
+    None (the stitch is knitted plain, and W603 says so)."""
+    bed, numbers = gen.bed, gen.opts.numbers
+    other: Pos = ("b" if pos[0] == "f" else "f", pos[1])
+    if bed.loops.get(other, 0) or any(int(gen.knit_needle[x]) == other[1] and
+                                      BEDS[int(gen.knit_bed[x])] == other[0]
+                                      for x in gen.t.stitch[gen.course_visits]):
+        gen.reverse_conflicts[int(gen.g.node[s])] += 1
+        return None
+
+    def pre() -> None:
+        if bed.loops.get(pos, 0):
+            bed.prog.stitch_number(numbers.transfer)
+            bed.set_rack(0)
+            bed.xfer(pos, other, s)
+
+    def main() -> None:
+        if bed.loops.get(other, 0):
+            cast.emit(ctx, "knit", d, other, s, number)
+        else:
+            cast.emit(ctx, "tuck", d, other, s, numbers.cast_on)
+
+    def post() -> None:
+        bed.prog.stitch_number(numbers.transfer)
+        bed.set_rack(0)
+        bed.xfer(other, pos, s)
+
+    return Action(s, pre=[pre], main=[main], post=[post])
 
 
 def _increases(gen: _Gen, chunk: np.ndarray, primary: dict[int, int]) -> dict[int, tuple]:

@@ -63,6 +63,8 @@ class QueryEnv:
 
     params: Mapping[str, object] = field(default_factory=dict)
     lets: Mapping[str, np.ndarray | ast.Node] = field(default_factory=dict)
+    values: Mapping[str, object] = field(default_factory=dict)
+    """Bare names with a value: the arguments of the pattern definition being applied."""
 
 
 class QueryError(Exception):
@@ -292,6 +294,8 @@ class _Eval:
         """Arithmetic on a range bound; returns (value, whether it mentions `end`)."""
         if isinstance(e, ast.Number):
             return e.value, False
+        if isinstance(e, ast.Name) and e.id in self.env.values:
+            return self.env.values[e.id], False
         if isinstance(e, ast.Name) and e.id == "end":
             if end is None:
                 raise QueryError("E702", "`end` cannot be used here", e.span)
@@ -355,6 +359,8 @@ class _Eval:
             if v is None:
                 raise QueryError("E704", f"unknown parameter `#{e.name}`", e.span)
             return v
+        if isinstance(e, ast.Name) and e.id in self.env.values:
+            return self.env.values[e.id]
         if isinstance(e, ast.Name):
             fields_ = {"course": c.course, "wale": c.wale, "course_end": c.course_end,
                        "wale_end": c.wale_end, "side": self.g.side.astype(np.int64),

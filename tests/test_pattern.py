@@ -1,0 +1,115 @@
+"""The pattern pass (`passes/pattern.py`) and the lowering of P in code generation: which
+instruction each stitch gets, that nothing but instructions changes, the purl's transfers,
+and the warnings for what is not lowered yet. Every program here also runs clean on the
+independent machine."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given
+
+from knitc.backends.knitout import write_knitout
+from knitc.diagnostics import Diagnostics
+from knitc.driver import compile_source
+from knitc.ir.stitch_graph import INSTRUCTIONS
+from knitc.passes.pattern import apply_patterns
+from knitc.passes.query import coords
+from knitc.passes.shape import build_stitch_graph
+from oracle import assert_clean, run_oracle_on_text
+from test_props_resolve import programs
+from test_props_shape import SETTINGS, compile_graph
+
+P = INSTRUCTIONS.index("P")
+RIB = "import std.stitches (rib)\n"
+
+
+def build(src: str, until: str = "machine"):
+    r = compile_source(src, "t.knit", until=until)
+    assert not r.diagnostics.has_errors, r.diagnostics.render()
+    return r
+
+
+@pytest.mark.parametrize("src", [
+    RIB + "tube t { length: 4  width: 6  gauge: half }\npattern t { apply rib(1, 1) }\n",
+    RIB + "sheet s { length: 4  width: 8 }\npattern s { apply rib(2, 1) }\n",
+])
+def test_rib_purls_every_wale_the_definition_says(src):
+    r = build(src, "stitch-graph")
+    k, p = (1, 1) if "rib(1, 1)" in src else (2, 1)
+    wale = coords(r.graph).wale
+    assert np.array_equal(r.graph.instr == P, wale % (k + p) >= k)
+
+
+def test_later_layers_win_and_global_layers_wrap_node_layers():
+    src = ("sheet s { length: 3  width: 6 }\n"
+           "pattern before { set P }\n"
+           "pattern s { set K where courses(0) }\n"
+           "pattern after { set T where wales(0) }\n")
+    g = build(src, "stitch-graph").graph
+    c = coords(g)
+    want = np.where(c.wale == 0, INSTRUCTIONS.index("T"), np.where(c.course == 0, 0, P))
+    assert np.array_equal(g.instr, want)
+
+
+def test_a_purl_is_knitted_from_the_other_bed_and_put_back():
+    r = build(RIB + "tube t { length: 3  width: 4  gauge: half }\npattern t { apply rib(1, 1) }\n")
+    ops = list(r.program)
+    # (stitches of the cast-on course are made by the cast-on; look at the later ones)
+    purled = {int(s) for s in np.nonzero((r.graph.instr == P) & (r.graph.wale_prev[:, 0] >= 0))[0]}
+    assert purled
+    side = "fb"
+    for s in purled:
+        at = next(i for i, o in enumerate(ops) if o.stitch == s and o.kind in ("knit", "tuck"))
+        made = ops[at]
+        assert made.needle.bed != side[int(r.graph.side[s])]  # knitted from the other bed
+        back = next(o for o in ops[at:] if o.stitch == s and o.kind == "xfer")
+        assert back.needle == made.needle  # and its new loop returned to its own bed
+        assert back.needle2.bed == side[int(r.graph.side[s])]
+        assert back.needle2.index == made.needle.index
+    assert not [d for d in r.diagnostics if d.code in ("W603", "W604")]
+
+
+def test_purls_on_a_full_gauge_tube_warn_at_the_node():
+    r = build(RIB + "tube t { length: 3  width: 4 }\npattern t { apply rib(1, 1) }\n")
+    [w] = [d for d in r.diagnostics if d.code == "W603"]
+    assert w.span.line == 2 and "half gauge" in (w.hint or "")
+    purled = set(np.nonzero(r.graph.instr == P)[0].tolist())
+    made = [o for o in r.program if o.stitch in purled and o.kind == "knit"]
+    assert made and all(o.needle.bed == "fb"[int(r.graph.side[o.stitch])] for o in made)
+
+
+def test_instructions_not_lowered_yet_and_actions_warn():
+    r = build("action a { main { knit(dir, needle, carriers) } }\n"
+              "sheet s { length: 2  width: 4 }\npattern s {\n  set T where wales(0)\n"
+              "  use a where wales(1)\n}\n")
+    codes = {d.code for d in r.diagnostics}
+    assert {"W604", "W706"} <= codes
+
+
+def test_patterned_programs_run_clean_on_the_independent_machine():
+    texts = [write_knitout(build(RIB + src).program) for src in (
+        "tube t { length: 4  width: 6  gauge: half }\npattern t { apply rib(1, 1) }\n",
+        "sheet s { length: 4  width: 8 }\npattern s { apply rib(2, 2) }\n",
+        "sheet s { length: 5  width: [0: 8, 1: 6] }\npattern s { apply rib(1, 1) }\n",
+    )]
+    texts.append(write_knitout(build(
+        Path(__file__).resolve().parent.parent.joinpath("examples", "sweater.knit")
+        .read_text()).program))
+    for report in run_oracle_on_text(texts):
+        assert_clean(report)
+
+
+@SETTINGS
+@given(programs())
+def test_patterns_never_create_or_delete_stitches(prog):
+    r, patterned = compile_graph(prog)
+    raw = build_stitch_graph(r.skeleton, Diagnostics())
+    again = apply_patterns(r.skeleton, raw, Diagnostics())
+    for name in ("node", "course", "side", "needle", "cprev", "cnext", "wale_prev",
+                 "wale_next", "course_start", "course_len"):
+        assert np.array_equal(getattr(again, name), getattr(raw, name)), name
+    assert np.array_equal(again.instr, patterned.instr)  # the driver runs the same pass
+    assert again.instr.max(initial=0) < len(INSTRUCTIONS)
