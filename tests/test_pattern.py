@@ -95,9 +95,13 @@ def test_patterned_programs_run_clean_on_the_independent_machine():
         "sheet s { length: 4  width: 8 }\npattern s { apply rib(2, 2) }\n",
         "sheet s { length: 5  width: [0: 8, 1: 6] }\npattern s { apply rib(1, 1) }\n",
     )]
-    texts.append(write_knitout(build(
-        Path(__file__).resolve().parent.parent.joinpath("examples", "sweater.knit")
-        .read_text()).program))
+    sweater = build(Path(__file__).resolve().parent.parent.joinpath("examples", "sweater.knit")
+                    .read_text())
+    # its ribs are half-gauge tubes: every purl finds its facing needle free (the new
+    # yarns' catching tucks keep off those needles)
+    assert not [d for d in sweater.diagnostics if d.code == "W603"]
+    assert (sweater.graph.instr == P).sum() > 100
+    texts.append(write_knitout(sweater.program))
     for report in run_oracle_on_text(texts):
         assert_clean(report)
 

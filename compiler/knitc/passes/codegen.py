@@ -355,6 +355,9 @@ def _cast_on(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, new: bool) -> list[Pos
     catch: list[Pos] = []
     if new:
         busy = {st.pos for st in plan} | {e.pos for e in entries}
+        # a purl of the first course needs the needle facing it free for its transfer
+        busy |= {("b" if e.pos[0] == "f" else "f", e.pos[1]) for e in entries
+                 if INSTRUCTIONS[int(g.instr[e.stitch])] == "P"}
         catch = cast.yarn_start(ctx, plan[0] if plan else entries[0], busy, entries[0].stitch)
     cast.emit_plan(ctx, plan)
     return catch
