@@ -116,8 +116,8 @@ class _Gen:
     """(node, instruction) -> stitches knitted plain because the instruction is not lowered."""
     reverse_conflicts: Counter = field(default_factory=Counter)
     """Nodes -> purls knitted plain because the facing needle holds fabric (full-gauge tube)."""
-    course_visits: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
-    """The visits of the course being knitted."""
+    course_needles: set[Pos] = field(default_factory=set)
+    """Where the stitches of the course being knitted are knitted (set once per course)."""
     split_fallbacks: Counter = field(default_factory=Counter)
     """Nodes -> split increases that had to use a kickback (no free needle to split to)."""
     warned: set[str] = field(default_factory=set)
@@ -205,7 +205,7 @@ def _run(gen: _Gen) -> None:
             _place(gen, aligned, represented, int(ids[0]))
         if v0 == course_bounds[ci]:  # a course begins
             chunk = np.arange(course_bounds[ci], course_bounds[ci + 1])
-            gen.course_visits = chunk
+            gen.course_needles = {gen.pos(int(x)) for x in t.stitch[chunk]}
             ci += 1
             primary = {}
             yarn = int(t.yarn[v0])
@@ -238,15 +238,19 @@ def _run(gen: _Gen) -> None:
             # the schedule lets a later slice of the course knit on one of their needles:
             # then this slice gets its own cast-off pass (ch. 6.8), with its own tail.
             ends = [int(x) for x in ids if g.wale_next[x, 0] < 0]
-            rest = t.stitch[int(sub[-1]) + 1:course_bounds[ci]]
-            taken = {gen.pos(int(x)) for x in rest}
-            if ends and any(gen.bed.where.get(x) in taken for x in ends):
+            if ends and _reused_later(gen, ends, t.stitch[int(sub[-1]) + 1:course_bounds[ci]]):
                 left, last_dir = _cast_off(gen, ctx, sub, ends)
                 if left >= 0:
                     _tail_and_drop(ctx, left, last_dir)
     leftover = [pos for pos, n in gen.bed.loops.items() if n > 0]
     if leftover:
         raise Unsupported(f"{len(leftover)} loops would be left on the needles")
+
+
+def _reused_later(gen: _Gen, ends: list[int], rest: np.ndarray) -> bool:
+    """Whether a stitch still to be knitted in this course lands on an ending loop's needle."""
+    held = {gen.bed.where.get(x) for x in ends}
+    return any(gen.pos(int(x)) in held for x in rest)
 
 
 def _finish_course(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, carrier: int,
@@ -484,9 +488,7 @@ def _purl(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, number: int) -> Ac
     None (the stitch is knitted plain, and W603 says so)."""
     bed, numbers = gen.bed, gen.opts.numbers
     other: Pos = ("b" if pos[0] == "f" else "f", pos[1])
-    if bed.loops.get(other, 0) or any(int(gen.knit_needle[x]) == other[1] and
-                                      BEDS[int(gen.knit_bed[x])] == other[0]
-                                      for x in gen.t.stitch[gen.course_visits]):
+    if bed.loops.get(other, 0) or other in gen.course_needles:
         gen.reverse_conflicts[int(gen.g.node[s])] += 1
         return None
 
