@@ -308,19 +308,38 @@ def placements(g: StitchGraph, sched: Schedule
         yield k, alignments(sched, k), (rep, sched.bed[en], sched.needle[en])
 
 
+def moves(g: StitchGraph, sched: Schedule
+          ) -> Iterator[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """The loops that change place, replaying `placements`: for each slice k, first for its
+    alignments then for its represented loops, (k, loops, from_bed, from_needle, to_bed,
+    to_needle) of the loops already on the bed whose place changes."""
+    bed = np.full(g.n_stitches, -1, np.int64)
+    ndl = np.full(g.n_stitches, -1, np.int64)
+    for k, (s_al, b_al, n_al), (rep, b_rep, n_rep) in placements(g, sched):
+        for lo, b, n in ((s_al.astype(np.int64), b_al, n_al), (rep, b_rep, n_rep)):
+            ch = (bed[lo] >= 0) & ((bed[lo] != b) | (ndl[lo] != n))
+            if np.any(ch):
+                yield k, lo[ch], bed[lo[ch]], ndl[lo[ch]], b[ch], n[ch]
+            bed[lo], ndl[lo] = b, n
+
+
 def loop_moves(g: StitchGraph, sched: Schedule) -> tuple[int, int]:
     """(roll, shift): how many times a loop changes bed, and changes needle, between its
     successive places on the bed (each slice that represents it, and its alignments)."""
-    bed = np.full(g.n_stitches, -1, np.int64)
-    ndl = np.full(g.n_stitches, -1, np.int64)
     roll = shift = 0
-    for _k, (s_al, b_al, n_al), (rep, b_rep, n_rep) in placements(g, sched):
-        for lo, b, n in ((s_al.astype(np.int64), b_al, n_al), (rep, b_rep, n_rep)):
-            known = bed[lo] >= 0
-            roll += int(np.count_nonzero(known & (bed[lo] != b)))
-            shift += int(np.count_nonzero(known & (ndl[lo] != n)))
-            bed[lo], ndl[lo] = b, n
+    for _k, _lo, bf, nf, bt, nt in moves(g, sched):
+        roll += int(np.count_nonzero(bf != bt))
+        shift += int(np.count_nonzero(nf != nt))
     return roll, shift
+
+
+def knit_slices(sched: Schedule, n_stitches: int) -> np.ndarray:
+    """Per stitch the slice that knits it (its ACTIVE entry; -1 if none)."""
+    sl = sched.slices
+    out = np.full(n_stitches, -1, np.int64)
+    act = sl.state == ACTIVE
+    out[sl.stitch[act]] = np.repeat(np.arange(sl.n_slices), sl.length)[act]
+    return out
 
 
 def knit_positions(sched: Schedule, n_stitches: int) -> tuple[np.ndarray, np.ndarray]:

@@ -41,7 +41,6 @@ from knitc.ir import schedule as sc
 from knitc.ir import skeleton as sk
 from knitc.ir import trace as tr
 from knitc.ir.machine import Machine, MachineProgram
-from knitc.ir.slices import ACTIVE
 from knitc.ir.stitch_graph import COURSE_KINDS, INSTRUCTIONS, StitchGraph
 from knitc.passes import casting as cast
 from knitc.passes.bed import BEDS, Bed, Pos, Unsupported
@@ -369,39 +368,22 @@ def _cast_on(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, new: bool) -> list[Pos
 
 def _precast_cover(gen: _Gen, node: int) -> set[Pos]:
     """The needles a precast may fill: where the node's stitches will be knitted, except
-    needles that the schedule's shaping moves reach or pass before their stitch is knitted
-    (a loop of no stitch cannot be carried along with the layout; it would block the
-    transfers). Replays the node's placements once."""
+    needles that the schedule's shaping moves reach or pass (in a slice of the node) before
+    their stitch is knitted: a loop of no stitch cannot be carried along with the layout,
+    it would block the transfers."""
     g, sched = gen.g, gen.sched
-    sl = sched.slices
     ids = np.nonzero(g.node == node)[0]
-    if ids.size == 0:
-        return set()
-    act = sl.state == ACTIVE
-    knit_slice = np.full(g.n_stitches, -1, np.int64)
-    knit_slice[sl.stitch[act]] = np.repeat(np.arange(sl.n_slices), sl.length)[act]
-    where = {int(s): gen.pos(int(s)) for s in ids}
-    spans: list[tuple[int, int, int]] = []  # (slice, lo, hi) of each slice's moves
-    for k, aligned, represented in sc.placements(g, sched):
-        if int(sl.node[k]) != node:
-            continue
-        lo, hi = None, None
-        for loops, beds, needles in (aligned, represented):
-            for x, b, n in zip(loops.tolist(), beds.tolist(), needles.tolist(), strict=True):
-                here = where.get(x)
-                to = (BEDS[b], n)
-                if here is not None and here != to:
-                    a, z = min(here[1], n), max(here[1], n)
-                    lo, hi = (a, z) if lo is None else (min(lo, a), max(hi, z))
-                where[x] = to
-        if lo is not None:
-            spans.append((k, lo, hi))
-    cover = set()
-    for x in ids.tolist():
-        pos, k = gen.pos(x), int(knit_slice[x])
-        if not any(kk <= k and lo <= pos[1] <= hi for kk, lo, hi in spans):
-            cover.add(pos)
-    return cover
+    spans = [(k, min(nf.min(), nt.min()), max(nf.max(), nt.max()))
+             for k, _lo, _bf, nf, _bt, nt in sc.moves(g, sched)
+             if int(sched.slices.node[k]) == node]
+    needle = gen.knit_needle[ids].astype(np.int64)
+    blocked = np.zeros(ids.size, bool)
+    if spans:
+        k, lo, hi = (np.array(c, np.int64) for c in zip(*spans, strict=True))
+        when = sc.knit_slices(sched, g.n_stitches)[ids]
+        blocked = ((k <= when[:, None]) & (lo <= needle[:, None])
+                   & (needle[:, None] <= hi)).any(axis=1)
+    return {gen.pos(int(x)) for x in ids[~blocked]}
 
 
 # ---- action pass ------------------------------------------------------------------------------
