@@ -26,7 +26,7 @@ from knitc.diagnostics import Diagnostics
 from knitc.evaluate import EvalError, Evaluator, Word
 from knitc.ir import skeleton as sk
 from knitc.ir.stitch_graph import INSTRUCTIONS, StitchGraph
-from knitc.passes.query import QueryEnv, evaluate_query
+from knitc.passes.query import Coords, QueryEnv, coords, evaluate_query
 from knitc.syntax import ast
 
 MAX_DEPTH = 32
@@ -45,8 +45,8 @@ def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> Sti
             if layer.target not in g.node_names:
                 continue
             node = g.node_names.index(layer.target)
-        env = run.envs.setdefault((layer.target, id(layer.origin)), QueryEnv(
-            params=dict(skel.params), lets={}))
+        # the statements of one `pattern X { ... }` block share its `let`s
+        env = run.envs.setdefault(layer.origin, QueryEnv(params=dict(skel.params), lets={}))
         run.stmts((layer.stmt,), node, env, None, 0)
     return dataclasses.replace(g, instr=instr)
 
@@ -59,6 +59,10 @@ class _Run:
     instr: np.ndarray
     envs: dict = dataclasses.field(default_factory=dict)
     warned: set = dataclasses.field(default_factory=set)
+    coords: Coords | None = None
+
+    def __post_init__(self) -> None:
+        self.coords = coords(self.g)  # once for every query of every layer
 
     def stmts(self, body, node: int | None, env: QueryEnv, within: np.ndarray | None,
               depth: int) -> None:
@@ -80,7 +84,7 @@ class _Run:
 
     def select(self, node: int | None, where, env: QueryEnv,
                within: np.ndarray | None) -> np.ndarray:
-        mask = evaluate_query(self.g, node, where, env, self.diags)
+        mask = evaluate_query(self.g, node, where, env, self.diags, c=self.coords)
         return mask if within is None else mask & within
 
     def apply(self, stmt: ast.ApplyStmt, node: int | None, env: QueryEnv,

@@ -143,10 +143,10 @@ def grow(g: StitchGraph, sel: np.ndarray, domain: np.ndarray,
 
 
 class _Eval:
-    def __init__(self, g: StitchGraph, node: int | None, env: QueryEnv):
+    def __init__(self, g: StitchGraph, node: int | None, env: QueryEnv, c: Coords | None):
         self.g = g
         self.env = env
-        self.c = coords(g)
+        self.c = coords(g) if c is None else c
         self.domain = (g.node == node) if node is not None else np.ones(g.n_stitches, bool)
         self._nbrs: np.ndarray | None = None
 
@@ -394,14 +394,16 @@ class _Eval:
 
 
 def evaluate_query(g: StitchGraph, node: int | None, q: ast.Node | None,
-                   env: QueryEnv | None, diags: Diagnostics) -> np.ndarray:
+                   env: QueryEnv | None, diags: Diagnostics, *,
+                   c: Coords | None = None) -> np.ndarray:
     """Boolean mask (length `g.n_stitches`) of the stitches `q` selects.
 
     `node` is the index of the layer's node in `g.node_names` (the result is then a subset
     of that node's stitches) or None for the global `before`/`after` layers. `q` None means
-    `all()`. Errors are reported in `diags` and select nothing.
+    `all()`. Errors are reported in `diags` and select nothing. `c` is `coords(g)`, for
+    callers that evaluate many queries on one graph (it is computed otherwise).
     """
-    ev = _Eval(g, node, env or QueryEnv())
+    ev = _Eval(g, node, env or QueryEnv(), c)
     try:
         return np.asarray(ev.query(q), dtype=bool) & ev.domain
     except QueryError as err:
