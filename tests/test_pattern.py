@@ -72,8 +72,14 @@ def test_a_purl_is_knitted_from_the_other_bed_and_put_back():
     assert not [d for d in r.diagnostics if d.code in ("W603", "W604")]
 
 
+FULL_GAUGE_RIB = RIB + "tube t { length: 3  width: 4 }\npattern t { apply rib(1, 1) }\n"
+NOT_LOWERED = ("action a { main { knit(dir, needle, carriers) } }\n"
+               "sheet s { length: 2  width: 4 }\npattern s {\n  set T where wales(0)\n"
+               "  use a where wales(1)\n}\n")
+
+
 def test_purls_on_a_full_gauge_tube_warn_at_the_node():
-    r = build(RIB + "tube t { length: 3  width: 4 }\npattern t { apply rib(1, 1) }\n")
+    r = build(FULL_GAUGE_RIB)
     [w] = [d for d in r.diagnostics if d.code == "W603"]
     assert w.span.line == 2 and "half gauge" in (w.hint or "")
     purled = set(np.nonzero(r.graph.instr == P)[0].tolist())
@@ -82,9 +88,7 @@ def test_purls_on_a_full_gauge_tube_warn_at_the_node():
 
 
 def test_instructions_not_lowered_yet_and_actions_warn():
-    r = build("action a { main { knit(dir, needle, carriers) } }\n"
-              "sheet s { length: 2  width: 4 }\npattern s {\n  set T where wales(0)\n"
-              "  use a where wales(1)\n}\n")
+    r = build(NOT_LOWERED)
     codes = {d.code for d in r.diagnostics}
     assert {"W604", "W706"} <= codes
 
@@ -94,7 +98,9 @@ def test_patterned_programs_run_clean_on_the_independent_machine():
         "tube t { length: 4  width: 6  gauge: half }\npattern t { apply rib(1, 1) }\n",
         "sheet s { length: 4  width: 8 }\npattern s { apply rib(2, 2) }\n",
         "sheet s { length: 5  width: [0: 8, 1: 6] }\npattern s { apply rib(1, 1) }\n",
+        "tube t { length: 3  width: 4  gauge: half }\npattern t { apply rib(1, 1) }\n",
     )]
+    texts += [write_knitout(build(src).program) for src in (FULL_GAUGE_RIB, NOT_LOWERED)]
     sweater = build(Path(__file__).resolve().parent.parent.joinpath("examples", "sweater.knit")
                     .read_text())
     # its ribs are half-gauge tubes: every purl finds its facing needle free (the new
