@@ -283,6 +283,11 @@ def _copy(s):
     return {f: getattr(s, f).copy() for f in s.__dataclass_fields__}
 
 
+def _entries(s, k: int, state: int) -> np.ndarray:
+    """Indices (into the flat entry arrays) of slice k's entries in `state`, in cycle order."""
+    return int(s.start[k]) + np.flatnonzero(s.cycle(k)[1] == state)
+
+
 def test_verifier_accepts_the_fixture(shaped):
     g, t, s = shaped
     assert (s.state == sl.SUSPENDED).any() and (s.shaping > 0).any()
@@ -338,8 +343,7 @@ def test_verifier_rejects_wale_connected_stitches(shaped):
     # slice 1's first EXPECTED entry (a child of slice 0's front) replaced by the next
     # course's stitch above it: two wale-connected stitches in one slice
     k = 1
-    st, state = s.cycle(k)
-    i = int(s.start[k]) + int(np.flatnonzero(state == sl.ACTIVE)[0])
+    i = int(_entries(s, k, sl.ACTIVE)[0])
     a["stitch"][int(s.start[k])] = g.wale_next[a["stitch"][i], 0]
     _expect(g, t, sl.Slices(**a), "wale-connected")
 
@@ -372,8 +376,7 @@ def test_verifier_rejects_too_much_shaping(shaped):
 def test_verifier_rejects_a_wrong_derivation(shaped):
     g, t, s = shaped
     k = 2  # derived; swap two EXPECTED entries: not the order derivation gives
-    st, state = s.cycle(k)
-    i, j = (int(s.start[k]) + int(x) for x in np.flatnonzero(state == sl.EXPECTED)[:2])
+    i, j = (int(x) for x in _entries(s, k, sl.EXPECTED)[:2])
     a = _copy(s)
     a["stitch"][[i, j]] = a["stitch"][[j, i]]
     _expect(g, t, sl.Slices(**a), "derived")
@@ -397,8 +400,7 @@ def test_verifier_rejects_a_suspended_stitch_that_does_not_decrease(shaped):
     g, t, s = shaped
     a = _copy(s)
     k = 1
-    st, state = s.cycle(k)
-    i = int(s.start[k]) + int(np.flatnonzero(state == sl.EXPECTED)[0])
+    i = int(_entries(s, k, sl.EXPECTED)[0])
     a["state"][i] = sl.SUSPENDED
     _expect(g, t, sl.Slices(**a), "suspends")
 
@@ -409,8 +411,7 @@ def test_verifier_rejects_an_expected_stitch_already_knitted(shaped):
     # put slice 0's first (knitted) stitch back into slice 3 in place of an EXPECTED entry
     # (its next wale, 6, is not in slice 3)
     k = 3
-    st, state = s.cycle(k)
-    i = int(s.start[k]) + int(np.flatnonzero(state == sl.EXPECTED)[-1])
+    i = int(_entries(s, k, sl.EXPECTED)[-1])
     a["stitch"][i] = s.stitch[0]
     _expect(g, t, sl.Slices(**a), "finished")
 
