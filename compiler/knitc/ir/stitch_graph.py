@@ -12,7 +12,8 @@ Conventions:
 - `wale_prev` / `wale_next` hold up to two ids each (-1 = none): an increase is one stitch
   with two next wales, a decrease one stitch with two previous wales;
 - `instr` holds the pattern instruction (index into `INSTRUCTIONS`, 0 = K), `action` a stitch
-  action id (-1 = the instruction's own lowering), `yarn` a yarn mask (bit k = yarn k).
+  action id (-1 = the instruction's own lowering), `yarn` a yarn mask (bit k = yarn k),
+  `origin` the pattern statement that wrote them (for diagnostics).
 """
 
 from __future__ import annotations
@@ -61,6 +62,14 @@ class StitchGraph:
     course_gauge: np.ndarray  # int8: 1 full, 2 half
     course_names: dict[int, tuple[str, ...]] = field(default_factory=dict)
     """Interface names of a course, e.g. ("cuff.bottom",) or ("palm.top", "hand.base")."""
+    origin: np.ndarray | None = None
+    """int32 per stitch: index into `spans` of the pattern statement that last wrote the
+    stitch's `instr` or `action` (-1: none). Pattern warnings point at that line, not at the
+    node the stitch belongs to."""
+
+    def __post_init__(self) -> None:
+        if self.origin is None:
+            self.origin = np.full(self.node.shape[0], NONE, np.int32)
 
     @property
     def n_stitches(self) -> int:
@@ -180,7 +189,8 @@ def to_json(g: StitchGraph, *, stitches: bool = True) -> dict[str, Any]:
              "needle": int(g.needle[i]), "prev": int(g.cprev[i]), "next": int(g.cnext[i]),
              "wale_prev": wp[i], "wale_next": wn[i], "instr": INSTRUCTIONS[int(g.instr[i])],
              "action": int(g.action[i]), "yarn": int(g.yarn[i]),
-             "span": g.spans[int(g.span[i])].to_json()}
+             "span": g.spans[int(g.span[i])].to_json(),
+             **({"origin": g.spans[int(g.origin[i])].to_json()} if g.origin[i] >= 0 else {})}
             for i in range(g.n_stitches)
         ]
     return out

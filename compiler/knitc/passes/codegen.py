@@ -31,7 +31,7 @@ is the stitch's declaration.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,8 +42,10 @@ from knitc.ir import skeleton as sk
 from knitc.ir import trace as tr
 from knitc.ir.machine import Machine, MachineProgram
 from knitc.ir.stitch_graph import COURSE_KINDS, INSTRUCTIONS, StitchGraph
+from knitc.passes import actions
 from knitc.passes import casting as cast
 from knitc.passes.bed import BEDS, Bed, Pos, Unsupported
+from knitc.passes.steps import Action, run_actions
 from knitc.passes.transfers import move
 from knitc.source import Span
 
@@ -388,36 +390,6 @@ def _precast_cover(gen: _Gen, node: int) -> set[Pos]:
 
 # ---- action pass ------------------------------------------------------------------------------
 
-ActionStep = Callable[[], None]
-
-
-@dataclass
-class Action:
-    """One stitch's steps (thesis "Action Pass", after the pre-main-post stitch actions of
-    Narayanan et al.): `pre` steps bring loops where the main step needs them, `main` steps
-    make the stitch, `post` steps finish (return loops, remove local yarns). A pass runs the
-    k-th pre step of every stitch for k = 0, 1, ..., then the main steps in yarn order, then
-    the post steps like the pre steps."""
-
-    stitch: int
-    pre: list[ActionStep] = field(default_factory=list)
-    main: list[ActionStep] = field(default_factory=list)
-    post: list[ActionStep] = field(default_factory=list)
-
-
-def run_actions(actions: list[Action]) -> None:
-    """Run the steps of a sub-sequence of stitches in the order of the thesis's action pass."""
-    for part in ("pre", "main", "post"):
-        lists = [getattr(a, part) for a in actions]
-        if part == "main":
-            order = [f for fs in lists for f in fs]
-        else:
-            depth = max((len(fs) for fs in lists), default=0)
-            order = [fs[k] for k in range(depth) for fs in lists if k < len(fs)]
-        for f in order:
-            f()
-
-
 def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int, int]) -> None:
     incs = _increases(gen, chunk, primary)
     actions = [_action(gen, ctx, int(s), int(d) or 1, incs.get(int(s)))
@@ -447,6 +419,10 @@ def _action(gen: _Gen, ctx: cast.Ctx, s: int, d: int, inc: tuple | None) -> Acti
     def missed() -> None:
         cast.emit(ctx, "miss", d, pos, s)
 
+    if inc is None and int(gen.g.action[s]) >= 0:
+        user = actions.lower(gen, ctx, s, d, pos)
+        if user is not None:
+            return user
     if inc is None:
         instr = INSTRUCTIONS[int(gen.g.instr[s])]
         if instr == "P":

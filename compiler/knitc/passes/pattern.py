@@ -10,10 +10,13 @@ layers in source order, then `pattern after`; later writes win. Statements:
   arguments (bare names in its queries and filters). Its queries count courses and wales
   from the node, not from the selection: the same as the original's for the whole node
   (the common `apply rib(1, 1)`), an approximation for partial selections;
-- `use ACTION` and the drawn layers (`draw`, `stretch`, `tile`) are not applied yet: each
-  says so with warning W706, never silently.
+- `use ACTION where Q` attaches a stitch action (`passes.actions`);
+- `draw` / `stretch` / `tile GRID where Q` write a drawn grid of instructions
+  (`passes.drawing`).
 
-The pass never creates or deletes stitches: it returns the same graph with a new `instr`.
+Every write also records the statement in the graph's `origin`, so later warnings about a
+stitch's pattern point at the line that wrote it. The pass never creates or deletes
+stitches: it returns the same graph with new `instr`, `action` and `origin` arrays.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from knitc.diagnostics import Diagnostics
 from knitc.evaluate import EvalError, Evaluator, Word
 from knitc.ir import skeleton as sk
 from knitc.ir.stitch_graph import INSTRUCTIONS, StitchGraph
+from knitc.passes import actions, drawing
 from knitc.passes.query import Coords, QueryEnv, coords, evaluate_query
 from knitc.syntax import ast
 
@@ -34,8 +38,7 @@ MAX_DEPTH = 32
 
 
 def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> StitchGraph:
-    instr = g.instr.copy()
-    run = _Run(skel, g, diags, instr)
+    run = _Run(skel, g, diags, g.instr.copy(), g.action.copy(), g.origin.copy(), list(g.spans))
     before = [la for la in skel.layers if la.target == "before"]
     after = [la for la in skel.layers if la.target == "after"]
     nodes = [la for la in skel.layers if la.target not in ("before", "after")]
@@ -48,7 +51,8 @@ def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> Sti
         # the statements of one `pattern X { ... }` block share its `let`s
         env = run.envs.setdefault(layer.origin, QueryEnv(params=dict(skel.params), lets={}))
         run.stmts((layer.stmt,), node, env, None, 0)
-    return dataclasses.replace(g, instr=instr)
+    return dataclasses.replace(g, instr=run.instr, action=run.action, origin=run.origin,
+                               spans=run.spans)
 
 
 @dataclasses.dataclass
@@ -57,12 +61,24 @@ class _Run:
     g: StitchGraph
     diags: Diagnostics
     instr: np.ndarray
+    action: np.ndarray
+    origin: np.ndarray
+    spans: list
     envs: dict = dataclasses.field(default_factory=dict)
     warned: set = dataclasses.field(default_factory=set)
     coords: Coords | None = None
+    span_ids: dict = dataclasses.field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.coords = coords(self.g)  # once for every query of every layer
+
+    def mark(self, mask: np.ndarray, span) -> None:
+        """Record `span` (a pattern statement) as the origin of the stitches in `mask`."""
+        k = self.span_ids.get(span)
+        if k is None:
+            k = self.span_ids[span] = len(self.spans)
+            self.spans.append(span)
+        self.origin[mask] = k
 
     def stmts(self, body, node: int | None, env: QueryEnv, within: np.ndarray | None,
               depth: int) -> None:
@@ -72,15 +88,13 @@ class _Run:
             elif isinstance(stmt, ast.SetStmt):
                 mask = self.select(node, stmt.where, env, within)
                 self.instr[mask] = INSTRUCTIONS.index(stmt.instr)
+                self.mark(mask, stmt.span)
             elif isinstance(stmt, ast.ApplyStmt):
                 self.apply(stmt, node, env, within, depth)
-            elif stmt.span not in self.warned:
-                self.warned.add(stmt.span)
-                what = "stitch actions (`use`)" if isinstance(stmt, ast.UseStmt) else \
-                    f"drawn layers (`{stmt.mode}`)"
-                self.diags.warning("W706", f"{what} are not applied yet: these stitches keep "
-                                   "their other instructions", stmt.span,
-                                   hint="write the motif with `set` statements for now")
+            elif isinstance(stmt, ast.UseStmt):
+                actions.attach(self, stmt, node, env, within)
+            elif isinstance(stmt, ast.GridStmt):
+                drawing.apply_grid(self, stmt, node, env, within)
 
     def select(self, node: int | None, where, env: QueryEnv,
                within: np.ndarray | None) -> np.ndarray:
