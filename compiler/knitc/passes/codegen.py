@@ -71,6 +71,9 @@ class CodegenOptions:
     interface_span: Mapping[str, Span] = field(default_factory=dict)
     node_increase: Mapping[str, str] = field(default_factory=dict)
     numbers: cast.StitchNumbers = cast.STITCH_NUMBERS
+    actions: tuple = ()
+    """The design's action definitions (`ast.ActionDef`), indexed by `StitchGraph.action`
+    (the pattern pass numbers them in name order, `action_table`)."""
 
     def cast_on_for(self, names: tuple[str, ...]) -> str:
         return next((self.interface_cast_on[n] for n in names if n in self.interface_cast_on),
@@ -94,7 +97,13 @@ def options_from_skeleton(skel: sk.Skeleton) -> CodegenOptions:
         interface_cast_off={str(i.id): i.cast_off for i in itfs if i.cast_off != "auto"},
         interface_span={str(i.id): i.span for i in itfs if i.span is not None},
         node_increase={name: str(n.props.get("increase", "auto"))
-                       for name, n in skel.nodes.items()})
+                       for name, n in skel.nodes.items()},
+        actions=action_table(skel))
+
+
+def action_table(skel: sk.Skeleton) -> tuple:
+    """The action definitions in the order `StitchGraph.action` numbers them: by name."""
+    return tuple(skel.actions[name] for name in sorted(skel.actions))
 
 
 # ---- state ------------------------------------------------------------------------------------
