@@ -171,7 +171,7 @@ def test_params_and_lets():
     ("wales(0:0:end)", "E702"),
     ("wales(0:1.5:end)", "E702"),
     ("neighbors(1)", "E701"),
-    ('stretch("""\nK P\n""")', "E701"),
+    ("courses(0).wales(1)", "E701"),
     ('shape("nope")', "E705"),
     ("side(end)", "E703"),
     ("wales(0).neighbors(3:1)", "E702"),

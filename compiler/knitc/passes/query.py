@@ -29,28 +29,48 @@ exactly on the middle, as inclusive ranges must); a lone
 number (`courses(2)`) is the single index `round_half_up(v)`. `a:s:b` keeps every s-th
 index from the start; s must be a positive integer. A start after the stop selects nothing.
 
+Drawn queries (`stretch`, `tile`, `img`, `noise`) place a raster (`passes.raster`) over a
+*frame*: the stitches of a selection with a (row, col) coordinate each. The frame is the
+query's last argument or the selection it is chained on (`Q.tile(g)` = `tile(g, Q)`), else
+the layer's stitches; its coordinates are course and wale, or a grid's
+(`wale_grid`, `stitch_grid`, `passes.grids`) when the frame is one. A frame built with `and`
+or `-` keeps the coordinates of its grid operand, so `wale_grid() and side(front)` is a
+grid clipped to the front. `evaluate_frame` gives drawn layers the same frames.
+
 Errors (a wrong query must not crash the compiler) become E7xx diagnostics and the whole
-query selects nothing: E701 unknown or not-yet-supported query, E702 bad range, E703 bad
-argument, E704 unknown name, E705 unknown node in `shape(name)`.
+query selects nothing: E701 unknown query or not a query, E702 bad range, E703 bad
+argument, E704 unknown name, E705 unknown node in `shape(name)`, E710 not a grid, E713 an
+image that cannot be read, E714 a bad image channel or threshold, E715 a bad grid size or
+alignment, E716 a grid that is not rectangular, E717 a bad noise argument.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from knitc.diagnostics import Diagnostics
 from knitc.ir.stitch_graph import StitchGraph
+from knitc.passes import grids, raster
+from knitc.passes.raster import Placement
 from knitc.source import Span
 from knitc.syntax import ast
 
+DRAWN = ("stretch", "tile", "img", "noise")
+"""Queries that place a raster or noise over a frame."""
+GRIDS = ("wale_grid", "stitch_grid")
+"""Queries that build grid coordinates (a frame) from seed stitches."""
 SUPPORTED = ("all", "filter", "wales", "courses", "select", "side", "neighbors", "boundaries",
-             "named", "shape", "itf", "inverse")
-"""Query functions this module evaluates; the drawn ones (stretch, tile, img, noise, grids)
-belong to the grid pass and are reported as E701 here."""
+             "named", "shape", "itf", "inverse") + DRAWN + GRIDS
+"""Every query function of thesis Table 5.1 and ch. 6.9.1 that knitc has."""
+X_ALIGN = {"left": "left", "center": "center", "centre": "center", "right": "right"}
+Y_ALIGN = {"bottom": "bottom", "middle": "middle", "center": "middle", "centre": "middle",
+           "top": "top"}
 
 
 @dataclass
@@ -143,11 +163,14 @@ def grow(g: StitchGraph, sel: np.ndarray, domain: np.ndarray,
 
 
 class _Eval:
-    def __init__(self, g: StitchGraph, node: int | None, env: QueryEnv, c: Coords | None):
+    def __init__(self, g: StitchGraph, node: int | None, env: QueryEnv, c: Coords | None,
+                 within: np.ndarray | None = None):
         self.g = g
         self.env = env
         self.c = coords(g) if c is None else c
         self.domain = (g.node == node) if node is not None else np.ones(g.n_stitches, bool)
+        self.scope = self.domain if within is None else self.domain & within
+        """The layer's stitches: the default frame of drawn queries and grids."""
         self._nbrs: np.ndarray | None = None
 
     # -- selections
@@ -168,9 +191,14 @@ class _Eval:
                 return val.astype(bool) & self.domain
             return self.query(val)
         if isinstance(q, ast.Call) and isinstance(q.func, ast.Attr):
+            name = q.func.name.name
+            if name in DRAWN or name in GRIDS:
+                return self.framed(name, q, self.frame(q.func.obj)).mask & self.domain
             base = self.query(q.func.obj)
-            return self.call(q.func.name.name, q, base)
+            return self.call(name, q, base)
         if isinstance(q, ast.Call) and isinstance(q.func, ast.Name):
+            if q.func.id in DRAWN or q.func.id in GRIDS:
+                return self.framed(q.func.id, q, None).mask & self.domain
             return self.call(q.func.id, q, None)
         raise QueryError("E701", "this expression is not a query", q.span,
                          hint="queries are calls such as `wales(0:3)` combined with "
@@ -179,10 +207,8 @@ class _Eval:
     def call(self, name: str, q: ast.Call, base: np.ndarray | None) -> np.ndarray:
         args = [a for a in q.args if not isinstance(a, ast.KwArg)]
         if name not in SUPPORTED:
-            raise QueryError("E701", f"query `{name}` is not supported by the query "
-                                     "evaluator", q.func.span,
-                             hint="drawn queries (stretch, tile, img, noise, grids) are "
-                                  "applied by the grid layers")
+            raise QueryError("E701", f"unknown query `{name}`", q.func.span,
+                             hint="queries: " + ", ".join(SUPPORTED))
         if base is not None and name not in ("neighbors", "boundaries", "inverse"):
             raise QueryError("E701", f"`.{name}(...)` cannot be chained on a selection",
                              q.func.span, hint="combine selections with `and`")
@@ -240,6 +266,241 @@ class _Eval:
             if any(nm == iname or nm.split(".", 1)[-1] == iname for nm in names):
                 hit[cid] = True
         return d & hit[self.g.course]
+
+    # -- frames: selections with coordinates (drawn queries, grids, drawn layers)
+    def plain(self, mask: np.ndarray) -> Placement:
+        """A selection framed by its course/wale coordinates, per node."""
+        g = self.g
+        return Placement(mask, self.c.course, self.c.wale, g.node.astype(np.int64),
+                         row_key=g.course.astype(np.int64))
+
+    def frame(self, q: ast.Node | None) -> Placement:
+        """The selection of `q` with the coordinates a raster is placed in."""
+        if q is None:
+            return self.plain(self.scope.copy())
+        if isinstance(q, ast.Binary) and q.op in ("and", "-"):
+            left = self.frame(q.left)
+            if left.anchored:
+                right = self.query(q.right)
+                keep = right if q.op == "and" else ~right
+                return dataclasses.replace(left, mask=left.mask & keep)
+            if q.op == "and":
+                right = self.frame(q.right)
+                if right.anchored:
+                    return dataclasses.replace(right, mask=right.mask & left.mask)
+                return self.plain(left.mask & right.mask)
+            return self.plain(left.mask & ~self.query(q.right))
+        if isinstance(q, ast.Name):
+            val = self.env.lets.get(q.id)
+            if val is not None and not isinstance(val, np.ndarray):
+                return self.frame(val)
+        if isinstance(q, ast.Call):
+            if isinstance(q.func, ast.Name) and q.func.id in DRAWN + GRIDS:
+                return self.framed(q.func.id, q, None)
+            if isinstance(q.func, ast.Attr) and q.func.name.name in DRAWN + GRIDS:
+                return self.framed(q.func.name.name, q, self.frame(q.func.obj))
+        return self.plain(self.query(q))
+
+    def framed(self, name: str, q: ast.Call, base: Placement | None) -> Placement:
+        """A drawn query or a grid; `base` is the frame it is chained on, if any."""
+        if name == "wale_grid":
+            a = self.bind(q, ("wales", "steps"))
+            return self.wale_grid(base.mask if base else self.scope, a)
+        if name == "stitch_grid":
+            a = self.bind(q, ("w", "h", "x_align", "y_align"), need=2)
+            return self.stitch_grid(base.mask if base else self.scope, a)
+        if name == "img":
+            a = self.bind(q, ("file", "channel", "threshold"), need=1)
+            on = self.image(q, a)
+            fr = base or self.plain(self.scope.copy())
+            return dataclasses.replace(fr, mask=raster.place(on, fr, "stretch") >= 0)
+        if name == "noise":
+            a = self.bind(q, ("scale", "threshold", "seed"), need=1)
+            return self.noise(base or self.plain(self.scope.copy()), a)
+        a = self.bind(q, ("grid", "coords"), need=1)
+        if base is not None and "coords" in a:
+            raise QueryError("E703", f"`.{name}(...)` is chained on a selection and also "
+                                     "given one", a["coords"].span,
+                             hint=f"write `Q.{name}(grid)` or `{name}(grid, Q)`")
+        fr = base or (self.frame(a["coords"]) if "coords" in a
+                      else self.plain(self.scope.copy()))
+        on = self.raster_arg(a["grid"])
+        return dataclasses.replace(fr, mask=raster.place(on, fr, name) >= 0)
+
+    def bind(self, q: ast.Call, names: tuple[str, ...], need: int = 0) -> dict[str, ast.Node]:
+        """The call's arguments by parameter name: positional ones in order, then `k = v`."""
+        fname = q.func.name.name if isinstance(q.func, ast.Attr) else q.func.id  # type: ignore
+        pos = [a for a in q.args if not isinstance(a, ast.KwArg)]
+        if len(pos) > len(names):
+            raise QueryError("E703", f"`{fname}` takes at most {len(names)} argument(s), got "
+                                     f"{len(pos)}", q.span,
+                             hint=f"`{fname}({', '.join(names)})`")
+        out: dict[str, ast.Node] = dict(zip(names, pos))
+        for kw in q.args:
+            if not isinstance(kw, ast.KwArg):
+                continue
+            k = kw.name.name
+            if k not in names:
+                raise QueryError("E703", f"`{fname}` has no argument `{k}`", kw.name.span,
+                                 hint=f"its arguments: {', '.join(names)}")
+            if k in out:
+                raise QueryError("E703", f"argument `{k}` is given twice", kw.name.span)
+            out[k] = kw.value
+        if len(out) < need:
+            missing = [n for n in names[:need] if n not in out]
+            raise QueryError("E703", f"`{fname}` needs " + ", ".join(f"`{m}`" for m in
+                                                                      missing), q.span)
+        return out
+
+    def raster_arg(self, a: ast.Node) -> np.ndarray:
+        """The on/off cells of a grid argument: a `\"\"\"` grid, a `let` name bound to one,
+        or an image `img(file, channel, threshold)`."""
+        if isinstance(a, ast.Name) and isinstance(self.env.lets.get(a.id), ast.Grid):
+            a = self.env.lets[a.id]  # type: ignore[assignment]
+        if isinstance(a, ast.Grid):
+            for at, msg in raster.chart_shape_problems(a):
+                raise QueryError("E716", msg, at.span, hint="every row of a grid has as many "
+                                 "cells as the first; use `.` for an empty cell")
+            return raster.chart_values(a, lambda _text: 0)
+        if isinstance(a, ast.Call) and isinstance(a.func, ast.Name) and a.func.id == "img":
+            return self.image(a, self.bind(a, ("file", "channel", "threshold"), need=1))
+        raise QueryError("E710", "expected a grid", a.span,
+                         hint='a `"""` grid of cells (`.` or `0` = off, anything else on), '
+                              "a `let` name bound to one, or `img(file)`")
+
+    def image(self, q: ast.Call, a: dict[str, ast.Node]) -> np.ndarray:
+        """Cells of an image: 0 where the channel reaches the threshold, else -1."""
+        fa = a["file"]
+        if not isinstance(fa, ast.String):
+            raise QueryError("E703", "the image file is a name in quotes", fa.span,
+                             hint='e.g. `img("motif.png")`, relative to the design file')
+        channel = "k"
+        if "channel" in a:
+            channel = self.string(a["channel"]).lower()
+            if channel not in raster.CHANNELS:
+                raise QueryError("E714", f"unknown image channel `{channel}`",
+                                 a["channel"].span,
+                                 hint="channels: r g b a (opacity) l (luminance) "
+                                      "k (darkness, the default)")
+        threshold = 0.5
+        if "threshold" in a:
+            threshold = self.scalar(a["threshold"])
+            if not 0 <= threshold <= 1:
+                raise QueryError("E714", f"an image threshold is between 0 and 1, got "
+                                         f"{threshold:g}", a["threshold"].span)
+        path = Path(fa.value)
+        if not path.is_absolute() and fa.span is not None:
+            path = Path(fa.span.file).parent / path
+        try:
+            values = raster.image_channel(str(path), channel)
+        except raster.ImageProblem as err:
+            raise QueryError("E713", str(err), fa.span,
+                             hint="image paths are relative to the file that names them"
+                             ) from None
+        return np.where(values >= threshold, 0, raster.OFF).astype(np.int64)
+
+    def noise(self, fr: Placement, a: dict[str, ast.Node]) -> Placement:
+        """Stitches where seeded 2-D simplex noise over the frame reaches the threshold."""
+        scale = self.scalar(a["scale"])
+        if not scale > 0:
+            raise QueryError("E717", f"the noise scale is a size in stitches above 0, got "
+                                     f"{scale:g}", a["scale"].span)
+        threshold = self.scalar(a["threshold"]) if "threshold" in a else 0.5
+        if not 0 <= threshold <= 1:
+            raise QueryError("E717", f"a noise threshold is between 0 and 1, got "
+                                     f"{threshold:g}", a["threshold"].span)
+        seed = 1
+        if "seed" in a:
+            v = self.scalar(a["seed"])
+            if v != int(v):
+                raise QueryError("E717", f"a noise seed is a whole number, got {v:g}",
+                                 a["seed"].span)
+            seed = int(v)
+        r0, c0 = raster.origin(fr)
+        ids = np.nonzero(fr.mask)[0]
+        val = (raster.simplex2((fr.col[ids] - c0[ids]) / scale,
+                               (fr.row[ids] - r0[ids]) / scale, raster.permutation(seed))
+               + 1.0) / 2.0
+        mask = np.zeros_like(fr.mask)
+        mask[ids[val >= threshold]] = True
+        return dataclasses.replace(fr, mask=mask)
+
+    def steps(self, e: ast.Node | None) -> tuple[int, int | None]:
+        """(direction, count) of a number of stitches along a wale: `n`, `-n` (downwards),
+        `end` or `-end` (as far as the wale goes: count None)."""
+        if e is None or (isinstance(e, ast.Name) and e.id == "end"):
+            return 1, None
+        if isinstance(e, ast.Unary) and e.op == "-" and isinstance(e.operand, ast.Name) \
+                and e.operand.id == "end":
+            return -1, None
+        v = self.scalar(e)
+        if v != int(v) or v == 0:
+            raise QueryError("E715", f"a grid size is a whole number of stitches other than "
+                                     f"0, or `end`, got {v:g}", e.span)
+        return (1 if v > 0 else -1), abs(int(v))
+
+    def seeds_course(self, sel: np.ndarray, top: bool) -> np.ndarray:
+        """The stitches of `sel` on its lowest (or highest) course, per node."""
+        lo, hi = raster.extent(self.g.node.astype(np.int64), self.c.course, sel)
+        return sel & (self.c.course == (hi if top else lo))
+
+    def wale_grid(self, sel: np.ndarray, a: dict[str, ast.Node]) -> Placement:
+        """Wales traced up (or down) from the selection's first (or last) course."""
+        g, c = self.g, self.c
+        sign, count = self.steps(a.get("steps"))
+        down = sign < 0
+        seeds = self.seeds_course(sel & self.domain, down)
+        node = g.node.astype(np.int64)
+        rank, size = _group_rank((c.wale,), np.where(seeds, node, -1))
+        if "wales" in a:
+            seeds &= self.range(a["wales"], rank, size - 1)
+        rank, _ = _group_rank((c.wale,), np.where(seeds, node, -1))
+        ids = np.nonzero(seeds)[0]
+        far = None if count is None else count - 1
+        up_n, down_n = (0, far) if down else (far, 0)
+        gc = grids.extrude(g, ids, rank[ids], np.zeros(ids.size, np.int64), up_n, down_n,
+                           self.domain)
+        return Placement(gc.on, gc.row, gc.col, node, anchored=True)
+
+    def stitch_grid(self, sel: np.ndarray, a: dict[str, ast.Node]) -> Placement:
+        """A w x h grid from the selection's lower-left stitch (per node), along its course
+        then up (or down) its wales."""
+        g, c = self.g, self.c
+        (ws, w), (hs, h) = self.steps(a["w"]), self.steps(a["h"])
+        for key, sign in (("w", ws), ("h", hs)):
+            if sign < 0:
+                raise QueryError("E715", "a grid size is a positive whole number or `end`",
+                                 a[key].span, hint="place the grid with its alignments "
+                                 '(`"right"`, `"top"`) instead of negative sizes')
+        xa = self.choice(a.get("x_align"), X_ALIGN, "left")
+        ya = self.choice(a.get("y_align"), Y_ALIGN, "bottom")
+        sel = sel & self.domain
+        node = g.node.astype(np.int64)
+        ids = np.nonzero(sel)[0]
+        order = ids[np.lexsort((c.wale[ids], c.course[ids], node[ids]))]
+        first = np.ones(order.size, dtype=bool)
+        first[1:] = node[order][1:] != node[order][:-1]
+        anchors = order[first]
+        run, cols = grids.course_runs(g, c.wale, anchors, w, xa)
+        row0, up, down = grids.vertical_span(h, ya)
+        gc = grids.extrude(g, run, cols, np.full(run.size, row0, np.int64), up, down,
+                           self.domain)
+        return Placement(gc.on, gc.row, gc.col, node, anchored=True)
+
+    def choice(self, e: ast.Node | None, table: dict[str, str], default: str) -> str:
+        if e is None:
+            return default
+        v = self.string(e) if isinstance(e, ast.String) else None
+        if v not in table:
+            raise QueryError("E715", "expected one of " + ", ".join(f'"{k}"' for k in table),
+                             e.span)
+        return table[v]
+
+    def scalar(self, e: ast.Node) -> float:
+        v, uses_end = self.bound(e, None)
+        if uses_end or np.ndim(v) != 0:
+            raise QueryError("E703", "expected a number", e.span)
+        return float(v)  # type: ignore[arg-type]
 
     def nbrs(self) -> np.ndarray:
         if self._nbrs is None:
@@ -395,17 +656,35 @@ class _Eval:
 
 def evaluate_query(g: StitchGraph, node: int | None, q: ast.Node | None,
                    env: QueryEnv | None, diags: Diagnostics, *,
-                   c: Coords | None = None) -> np.ndarray:
+                   c: Coords | None = None, within: np.ndarray | None = None) -> np.ndarray:
     """Boolean mask (length `g.n_stitches`) of the stitches `q` selects.
 
     `node` is the index of the layer's node in `g.node_names` (the result is then a subset
     of that node's stitches) or None for the global `before`/`after` layers. `q` None means
     `all()`. Errors are reported in `diags` and select nothing. `c` is `coords(g)`, for
-    callers that evaluate many queries on one graph (it is computed otherwise).
+    callers that evaluate many queries on one graph (it is computed otherwise). `within`
+    (optional) is the selection of an enclosing `apply`: drawn queries and grids without a
+    frame of their own are placed on it instead of on the whole node (the result is not
+    clipped to it; the caller does that).
     """
-    ev = _Eval(g, node, env or QueryEnv(), c)
+    ev = _Eval(g, node, env or QueryEnv(), c, within)
     try:
         return np.asarray(ev.query(q), dtype=bool) & ev.domain
     except QueryError as err:
         diags.error(err.code, err.message, err.span, hint=err.hint)
         return np.zeros(g.n_stitches, dtype=bool)
+
+
+def evaluate_frame(g: StitchGraph, node: int | None, q: ast.Node | None,
+                   env: QueryEnv | None, diags: Diagnostics, *, c: Coords | None = None,
+                   within: np.ndarray | None = None) -> Placement | None:
+    """The selection of `q` (within `within`) with the coordinates a drawn layer places its
+    grid in: course/wale, or a wale/stitch grid's (see the module docstring). None after
+    an error (reported in `diags`)."""
+    ev = _Eval(g, node, env or QueryEnv(), c, within)
+    try:
+        fr = ev.frame(q)
+    except QueryError as err:
+        diags.error(err.code, err.message, err.span, hint=err.hint)
+        return None
+    return dataclasses.replace(fr, mask=fr.mask & ev.scope)

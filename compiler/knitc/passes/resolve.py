@@ -32,7 +32,7 @@ QUERY_FUNCTIONS = {
     "all": (0, 0), "filter": (1, 1), "wales": (1, 2), "courses": (1, 1), "select": (2, 3),
     "side": (1, 1), "neighbors": (0, 1), "boundaries": (0, 0), "named": (0, 0),
     "shape": (1, 1), "itf": (1, 1), "stretch": (1, 2), "tile": (1, 2), "img": (1, 3),
-    "noise": (1, 3), "wale_grid": (0, 3), "stitch_grid": (2, 4),
+    "noise": (1, 3), "wale_grid": (0, 2), "stitch_grid": (2, 4),
 }
 """Pattern queries of thesis Table 5.1, with their (min, max) positional arity."""
 
