@@ -1,6 +1,6 @@
 """The pattern pass (`passes/pattern.py`) and the lowering of P in code generation: which
 instruction each stitch gets, that nothing but instructions changes, the purl's transfers,
-and the warnings for what is not lowered yet. Every program here also runs clean on the
+and the warnings for what cannot be knitted. Every program here also runs clean on the
 independent machine."""
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from knitc.backends.knitout import write_knitout
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source
 from knitc.ir.stitch_graph import INSTRUCTIONS
+from knitc.passes.instructions import check_instructions
 from knitc.passes.pattern import apply_patterns
 from knitc.passes.query import coords
 from knitc.passes.shape import build_stitch_graph
@@ -47,10 +48,11 @@ def test_later_layers_win_and_global_layers_wrap_node_layers():
     src = ("sheet s { length: 3  width: 6 }\n"
            "pattern before { set P }\n"
            "pattern s { set K where courses(0) }\n"
-           "pattern after { set T where wales(0) }\n")
+           "pattern after { set T where wales(0) and courses(0:1) }\n")
     g = build(src, "stitch-graph").graph
     c = coords(g)
-    want = np.where(c.wale == 0, INSTRUCTIONS.index("T"), np.where(c.course == 0, 0, P))
+    want = np.where((c.wale == 0) & (c.course < 2), INSTRUCTIONS.index("T"),
+                    np.where(c.course == 0, 0, P))
     assert np.array_equal(g.instr, want)
 
 
@@ -73,24 +75,14 @@ def test_a_purl_is_knitted_from_the_other_bed_and_put_back():
 
 
 FULL_GAUGE_RIB = RIB + "tube t { length: 3  width: 4 }\npattern t { apply rib(1, 1) }\n"
-NOT_LOWERED = ("action a { main { knit(dir, needle, carriers) } }\n"
-               "sheet s { length: 2  width: 4 }\npattern s {\n  set T where wales(0)\n"
-               "  use a where wales(1)\n}\n")
 
 
-def test_purls_on_a_full_gauge_tube_warn_at_the_node():
+def test_purls_on_a_full_gauge_tube_are_knitted_plain():
     r = build(FULL_GAUGE_RIB)
-    [w] = [d for d in r.diagnostics if d.code == "W603"]
-    assert w.span.line == 2 and "half gauge" in (w.hint or "")
+    assert [d.code for d in r.diagnostics if d.code == "W603"] == ["W603"]
     purled = set(np.nonzero(r.graph.instr == P)[0].tolist())
     made = [o for o in r.program if o.stitch in purled and o.kind == "knit"]
     assert made and all(o.needle.bed == "fb"[int(r.graph.side[o.stitch])] for o in made)
-
-
-def test_instructions_not_lowered_yet_and_actions_warn():
-    r = build(NOT_LOWERED)
-    codes = {d.code for d in r.diagnostics}
-    assert {"W604", "W706"} <= codes
 
 
 def test_patterned_programs_run_clean_on_the_independent_machine():
@@ -100,7 +92,7 @@ def test_patterned_programs_run_clean_on_the_independent_machine():
         "sheet s { length: 5  width: [0: 8, 1: 6] }\npattern s { apply rib(1, 1) }\n",
         "tube t { length: 3  width: 4  gauge: half }\npattern t { apply rib(1, 1) }\n",
     )]
-    texts += [write_knitout(build(src).program) for src in (FULL_GAUGE_RIB, NOT_LOWERED)]
+    texts.append(write_knitout(build(FULL_GAUGE_RIB).program))
     sweater = build(Path(__file__).resolve().parent.parent.joinpath("examples", "sweater.knit")
                     .read_text())
     # its ribs are half-gauge tubes: every purl finds its facing needle free (the new
@@ -117,7 +109,8 @@ def test_patterned_programs_run_clean_on_the_independent_machine():
 def test_patterns_never_create_or_delete_stitches(prog):
     r, patterned = compile_graph(prog)
     raw = build_stitch_graph(r.skeleton, Diagnostics())
-    again = apply_patterns(r.skeleton, raw, Diagnostics())
+    again = check_instructions(apply_patterns(r.skeleton, raw, Diagnostics()), Diagnostics(),
+                               racking=r.skeleton.machine.racking)
     for name in ("node", "course", "side", "needle", "cprev", "cnext", "wale_prev",
                  "wale_next", "course_start", "course_len"):
         assert np.array_equal(getattr(again, name), getattr(raw, name)), name

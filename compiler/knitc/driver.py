@@ -26,6 +26,7 @@ from knitc.ir import slices as sl
 from knitc.ir import stitch_graph as sg
 from knitc.ir import trace as tr
 from knitc.passes.codegen import generate, options_from_skeleton
+from knitc.passes.instructions import check_instructions
 from knitc.passes.pattern import apply_patterns
 from knitc.passes.resolve import parse_define, resolve
 from knitc.passes.schedule import schedule
@@ -86,7 +87,8 @@ def compile_source(text: str, path: str, *, defines: list[str] = (), until: str 
     graph = build_stitch_graph(skel, diags)
     if graph is None:
         return _finish(result, werror)
-    graph = apply_patterns(skel, graph, diags)
+    graph = check_instructions(apply_patterns(skel, graph, diags), diags,
+                               racking=skel.machine.racking)
     sg.check(graph)  # the verifier between passes: a violation is a knitc bug
     result.graph, result.stage_reached = graph, "stitch-graph"
     if until == "stitch-graph" or diags.has_errors:

@@ -67,6 +67,10 @@ class StitchGraph:
     stitch's `instr` or `action` (-1: none). Pattern warnings point at that line, not at the
     node the stitch belongs to."""
 
+    origin_via: dict[int, tuple[Span, ...]] = field(default_factory=dict)
+    """For an `origin` inside applied pattern definitions: the statements it expanded
+    through, innermost last (the `origin` itself is the designer's own statement)."""
+
     def __post_init__(self) -> None:
         if self.origin is None:
             self.origin = np.full(self.node.shape[0], NONE, np.int32)

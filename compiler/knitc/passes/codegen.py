@@ -45,11 +45,18 @@ from knitc.ir.stitch_graph import COURSE_KINDS, INSTRUCTIONS, StitchGraph
 from knitc.passes import actions
 from knitc.passes import casting as cast
 from knitc.passes.bed import BEDS, Bed, Pos, Unsupported
+from knitc.passes.instructions import MOVES, cables, neighbour, right_left, via_notes
 from knitc.passes.steps import Action, run_actions
 from knitc.passes.transfers import move
 from knitc.source import Span
 
 SHORT_ROW = COURSE_KINDS.index("short_row")
+PURL, STACK = INSTRUCTIONS.index("P"), INSTRUCTIONS.index("S")
+XR_UP, XR_DOWN = INSTRUCTIONS.index("XR+"), INSTRUCTIONS.index("XR-")
+RIGHT_CROSS = {XR_UP: INSTRUCTIONS.index("XL-"), XR_DOWN: INSTRUCTIONS.index("XL+")}
+"""A right-going cross run -> the complement run that follows it (`rewire`)."""
+CROSS_CODES = (XR_UP, XR_DOWN, *RIGHT_CROSS.values())
+MOVE_CODES = list(MOVES)
 
 
 # ---- options ----------------------------------------------------------------------------------
@@ -72,8 +79,8 @@ class CodegenOptions:
     node_increase: Mapping[str, str] = field(default_factory=dict)
     numbers: cast.StitchNumbers = cast.STITCH_NUMBERS
     actions: tuple = ()
-    """The design's action definitions (`ast.ActionDef`), indexed by `StitchGraph.action`
-    (the pattern pass numbers them in name order, `action_table`)."""
+    """The design's actions and the built-ins, ready to run (`actions.Program`), indexed by
+    `StitchGraph.action` (`action_table`)."""
 
     def cast_on_for(self, names: tuple[str, ...]) -> str:
         return next((self.interface_cast_on[n] for n in names if n in self.interface_cast_on),
@@ -102,8 +109,9 @@ def options_from_skeleton(skel: sk.Skeleton) -> CodegenOptions:
 
 
 def action_table(skel: sk.Skeleton) -> tuple:
-    """The action definitions in the order `StitchGraph.action` numbers them: by name."""
-    return tuple(skel.actions[name] for name in sorted(skel.actions))
+    """The actions (`actions.Program`) in the order `StitchGraph.action` numbers them: the
+    design's and the built-in names, by name (`actions.table`)."""
+    return actions.table(skel)
 
 
 # ---- state ------------------------------------------------------------------------------------
@@ -122,10 +130,9 @@ class _Gen:
     carrier_of: dict[int, int] = field(default_factory=dict)
     """Yarns in action -> their carrier."""
     presser: str = "off"
-    unlowered: Counter = field(default_factory=Counter)
-    """(node, instruction) -> stitches knitted plain because the instruction is not lowered."""
     reverse_conflicts: Counter = field(default_factory=Counter)
-    """Nodes -> purls knitted plain because the facing needle holds fabric (full-gauge tube)."""
+    """Pattern statements (`g.origin`) -> reverse stitches knitted plain because the facing
+    needle holds fabric (a full-gauge tube)."""
     course_needles: set[Pos] = field(default_factory=set)
     """Where the stitches of the course being knitted are knitted (set once per course)."""
     split_fallbacks: Counter = field(default_factory=Counter)
@@ -135,8 +142,16 @@ class _Gen:
     knit_needle: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
     """Where the schedule knits each stitch (`schedule.knit_positions`)."""
 
+    action_state: object = None
+    """What `passes.actions` computes once per program (its own business)."""
+    carrying: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    """Per course: whether moves or crosses carry loops after it (`_carry`)."""
+
     def __post_init__(self) -> None:
         self.knit_bed, self.knit_needle = sc.knit_positions(self.sched, self.g.n_stitches)
+        g = self.g
+        self.carrying = np.zeros(g.n_courses, bool)
+        self.carrying[g.course[np.isin(g.instr, MOVE_CODES + list(CROSS_CODES))]] = True
 
     def pos(self, s: int) -> Pos:
         return BEDS[int(self.knit_bed[s])], int(self.knit_needle[s])
@@ -161,16 +176,13 @@ def generate(g: StitchGraph, sched: sc.Schedule, t: tr.Trace, *, machine: Machin
                          "machine's racking limit and free needles; allow more racking "
                          "(`machine { racking: ... }`) or shape more gradually")
         return None
-    for node, n in sorted(gen.reverse_conflicts.items()):
-        diags.warning("W603", f"{n} purl stitch(es) of `{g.node_names[node]}` are knitted "
-                      "plain: the needle facing them holds another loop (on a full-gauge "
-                      "tube, the other side's fabric)", _node_span(gen, node),
+    for origin, n in sorted(gen.reverse_conflicts.items()):
+        diags.warning("W603", f"{n} reverse stitch(es) are knitted plain: the needle facing "
+                      "them holds another loop (on a full-gauge tube, the other side's "
+                      "fabric)", g.spans[origin] if origin >= 0 else None,
+                      notes=via_notes(g, origin),
                       hint="knit this node in half gauge (`gauge: half`) to leave the "
                            "facing needles empty for reverse stitches")
-    for (node, instr), n in sorted(gen.unlowered.items()):
-        diags.warning("W604", f"{n} `{instr}` stitch(es) of `{g.node_names[node]}` are "
-                      f"knitted plain: `{instr}` is not lowered to machine operations yet",
-                      _node_span(gen, node), hint="only K and P are knitted as written today")
     for node, n in sorted(gen.split_fallbacks.items()):
         ids = np.nonzero(g.node == node)[0]
         diags.warning("W602", f"{n} split increase(s) of `{g.node_names[node]}` use a kickback "
@@ -242,6 +254,7 @@ def _run(gen: _Gen) -> None:
                 gen.bed.drop(p, -1)
         catch = []
         if int(sub[-1]) + 1 == course_bounds[ci]:  # the course is done
+            _carry(gen, chunk)
             _finish_course(gen, ctx, chunk, carrier, free)
         else:
             # Ending stitches wait for the course's cast-off (one chain around it), unless
@@ -290,7 +303,8 @@ def _place(gen: _Gen, aligned: tuple, represented: tuple, first: int) -> None:
     for loops, beds, needles in (aligned, represented):
         for s, b, n in zip(loops.tolist(), beds.tolist(), needles.tolist(), strict=True):
             here = bed.where.get(s)
-            if here is not None and here != (BEDS[b], n):
+            if here is not None and here != (BEDS[b], n) \
+                    and not (here[1] == n and _stays(gen, s)):
                 moves.append((s, here, (BEDS[b], n)))
     if moves:
         _park(gen, moves, gen.pos(first)[1])
@@ -317,13 +331,115 @@ def _shaping(gen: _Gen, sub: np.ndarray) -> dict[int, int]:
         here = bed.where[p]
         child = next((k for k in kids if gen.pos(k) == here), kids[0])
         primary[p] = child
-        if here != gen.pos(child):
+        if here != gen.pos(child) and not (here[1] == gen.pos(child)[1] and _stays(gen, p)):
             moves.append((p, here, gen.pos(child)))
     if moves:
         _park(gen, moves, gen.pos(int(ids[0]))[1])
         bed.prog.stitch_number(gen.opts.numbers.transfer)
+        lifted = _lift_stacks(gen, ids, moves)
         move(bed, moves)
+        for s, pos, away in lifted:  # S: back on top of the loops that arrived
+            bed.set_rack(0)
+            bed.xfer(away, pos, s)
     return primary
+
+
+def _lift_stacks(gen: _Gen, ids: np.ndarray, moves: list) -> list[tuple[int, Pos, Pos]]:
+    """S (stack, ch. 4.2.2 step 5): a stitch whose loop a move joins is lifted to the
+    facing needle (or its slider) before the moved loop arrives, and put back after, so it
+    ends on top of the stack. Returns (stitch, needle, where it waits)."""
+    g, bed = gen.g, gen.bed
+    arriving = {m[2] for m in moves}
+    out = []
+    for k in ids.tolist():
+        if int(g.wale_prev[k, 1]) < 0 or gen.pos(k) not in arriving:
+            continue
+        for p in g.wale_prev[k].tolist():
+            pos = bed.where.get(p)
+            if int(g.instr[p]) != STACK or pos != gen.pos(k):
+                continue
+            away = _free_facing(gen, pos)
+            bed.set_rack(0)
+            bed.xfer(pos, away, p)
+            out.append((p, pos, away))
+    return out
+
+
+def _free_facing(gen: _Gen, pos: Pos) -> Pos:
+    """The needle facing `pos` on the other bed if it is free, else its slider."""
+    other = "b" if pos[0] == "f" else "f"
+    for cand in ((other, pos[1]), (other + "s", pos[1])):
+        if not gen.bed.loops.get(cand, 0) and cand not in gen.course_needles:
+            return cand
+    raise Unsupported(f"no free needle or slider faces {pos[0]}{pos[1]} to carry its loop")
+
+
+def _carry(gen: _Gen, chunk: np.ndarray) -> None:
+    """The moves and crosses of a course, after it is knitted (ch. 4.2.2 steps 3-5): every
+    loop that goes elsewhere leaves for the facing needle (its slider on a full-gauge tube)
+    at racking 0, then comes back on its new needle, one racking per displacement: a
+    cable's upper run first (its loops end in front where the runs cross), its relief
+    stitches, its lower run, then the moves. An S stitch a move lands on is lifted before
+    and put back after, so its loop ends on top. Then each needle's loops stand for the
+    stitch knitted there (`instructions`): an emptied needle's next stitch is a yarn-over,
+    a needle two loops share knits them together."""
+    g, bed = gen.g, gen.bed
+    ids = gen.t.stitch[chunk]
+    codes = g.instr[ids]
+    if not np.isin(codes, MOVE_CODES + list(CROSS_CODES)).any():
+        return
+    right, left = right_left(g)  # crossing and lace courses only, so not cached
+    home = {int(x): gen.pos(int(x)) for x in ids}
+    rounds: list[list[tuple[int, Pos, Pos]]] = [[], [], [], []]  # upper, relief, lower, moves
+    involved: set[int] = set()
+    for cab in cables(g, ids, right, left):
+        runs = (0, 2) if cab.upper_first else (2, 0)
+        for i, (x, j) in enumerate(zip(cab.group, cab.targets(), strict=True)):
+            involved.add(x)
+            part = runs[0] if i < cab.first else 1 if i < cab.first + cab.relief else runs[1]
+            if j != i:
+                rounds[part].append((x, home[x], home[cab.group[j]]))
+    for x in ids[np.isin(codes, MOVE_CODES)].tolist():
+        t = neighbour(right, left, x, MOVES[int(g.instr[x])])
+        involved |= {x, t}
+        rounds[3].append((x, home[x], home[t]))
+    def facing(p: Pos) -> Pos:
+        return ("b" if p[0] == "f" else "f", p[1])
+
+    moves = [m for part in rounds for m in part if bed.where.get(m[0]) in (m[1], facing(m[1]))]
+    if not moves:
+        return
+    _park(gen, moves, gen.pos(int(ids[-1]))[1])
+    bed.prog.stitch_number(gen.opts.numbers.transfer)
+    bed.set_rack(0)
+    waiting = {}
+    for x, here, _ in moves:
+        if bed.where[x] != here:  # a B move's loop, knitted on the facing needle
+            waiting[x] = bed.where[x]
+            continue
+        waiting[x] = _free_facing(gen, here)
+        bed.xfer(here, waiting[x], x)
+    landing = {dst for x, _, dst in moves if int(g.instr[x]) in MOVE_CODES}
+    lifted = []
+    for t in sorted(involved):
+        if int(g.instr[t]) == STACK and home[t] in landing and bed.where.get(t) == home[t]:
+            lifted.append((t, _free_facing(gen, home[t])))
+            bed.xfer(home[t], lifted[-1][1], t)
+    for part in rounds:
+        for x, here, dst in sorted(part, key=lambda m: m[2][1] - m[1][1]):
+            if x in waiting:
+                bed.set_rack(dst[1] - here[1] if here[0] == "f" else here[1] - dst[1])
+                bed.xfer(waiting[x], dst, x)
+    bed.set_rack(0)
+    for t, away in lifted:
+        bed.xfer(away, home[t], t)
+    for x in involved:  # each needle's loops now stand for the stitch knitted there
+        at = bed.where.pop(x, None)
+        if at is not None:
+            bed.at[at].discard(x)
+    for x in involved:
+        if bed.loops.get(home[x], 0):
+            bed.place(x, home[x])
 
 
 def _park(gen: _Gen, moves: list, toward: int) -> None:
@@ -369,9 +485,13 @@ def _cast_on(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, new: bool) -> list[Pos
     catch: list[Pos] = []
     if new:
         busy = {st.pos for st in plan} | {e.pos for e in entries}
-        # a purl of the first course needs the needle facing it free for its transfer
+        # a purl (or an action that transfers) of the first course needs the needle
+        # facing it free
+        progs = gen.opts.actions
         busy |= {("b" if e.pos[0] == "f" else "f", e.pos[1]) for e in entries
-                 if INSTRUCTIONS[int(g.instr[e.stitch])] == "P"}
+                 if int(g.instr[e.stitch]) == PURL or (
+                     0 <= int(g.action[e.stitch]) < len(progs)
+                     and getattr(progs[int(g.action[e.stitch])], "transfers", False))}
         catch = cast.yarn_start(ctx, plan[0] if plan else entries[0], busy, entries[0].stitch)
     cast.emit_plan(ctx, plan)
     return catch
@@ -401,9 +521,12 @@ def _precast_cover(gen: _Gen, node: int) -> set[Pos]:
 
 def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int, int]) -> None:
     incs = _increases(gen, chunk, primary)
-    actions = [_action(gen, ctx, int(s), int(d) or 1, incs.get(int(s)))
-               for s, d in zip(gen.t.stitch[chunk], gen.t.dir[chunk], strict=True)]
-    run_actions(actions)
+    acts = [_action(gen, ctx, int(s), int(d) or 1, incs.get(int(s)))
+            for s, d in zip(gen.t.stitch[chunk], gen.t.dir[chunk], strict=True)]
+    for part in actions.prepare_pass(gen, acts):  # one, or per bed (`split_by_side`)
+        run_actions(part)
+    if gen.bed.rack:  # a user action's transfers may leave the machine racked
+        gen.bed.set_rack(0)
 
 
 def _action(gen: _Gen, ctx: cast.Ctx, s: int, d: int, inc: tuple | None) -> Action:
@@ -434,10 +557,15 @@ def _action(gen: _Gen, ctx: cast.Ctx, s: int, d: int, inc: tuple | None) -> Acti
             return user
     if inc is None:
         instr = INSTRUCTIONS[int(gen.g.instr[s])]
-        if instr == "P":
-            return _purl(gen, ctx, s, d, pos, plain) or Action(s, main=[knit])
-        if instr != "K":
-            gen.unlowered[(int(gen.g.node[s]), instr)] += 1
+        if instr == "P" or instr[0] == "B":  # reverse stitches; a B move is knitted reversed
+            # and its loop waits on the facing needle for `_carry`, which takes it from there
+            return _purl(gen, ctx, s, d, pos, plain, keep=instr[0] == "B") \
+                or Action(s, main=[knit])
+        if instr == "T":
+            return Action(s, main=[lambda: cast.emit(ctx, "tuck", d, pos, s, plain)])
+        if instr == "M":
+            return Action(s, main=[lambda: _miss(gen, ctx, s, d, pos)])
+        # K; the F moves, the crosses and S are knitted here and carried after the course
         return Action(s, main=[knit])
     if inc[0] == "kickback":
         return Action(s, main=[kickback])
@@ -448,16 +576,20 @@ def _action(gen: _Gen, ctx: cast.Ctx, s: int, d: int, inc: tuple | None) -> Acti
                   post=[lambda: _unsplit(gen, target, sibling)])
 
 
-def _purl(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, number: int) -> Action | None:
+def _purl(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, number: int,
+          keep: bool = False) -> Action | None:
     """P: a knit made from the other bed (ch. 4.2's lowering): the loop is transferred to the
     facing needle (pre), knitted there (main) and the new loop transferred back (post). The
     facing needle must be empty: always on a flat piece, on a tube only in half gauge; else
     None (the stitch is knitted plain, and W603 says so)."""
     bed, numbers = gen.bed, gen.opts.numbers
     other: Pos = ("b" if pos[0] == "f" else "f", pos[1])
-    if bed.loops.get(other, 0) or other in gen.course_needles:
-        gen.reverse_conflicts[int(gen.g.node[s])] += 1
+    own = set(int(p) for p in gen.g.wale_prev[s] if p >= 0)
+    if (bed.loops.get(other, 0) and not bed.at.get(other, set()) <= own) \
+            or other in gen.course_needles:
+        gen.reverse_conflicts[int(gen.g.origin[s])] += 1
         return None
+    stays = keep or _purl_continues(gen, s)
 
     def pre() -> None:
         if bed.loops.get(pos, 0):
@@ -476,7 +608,38 @@ def _purl(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, number: int) -> Ac
         bed.set_rack(0)
         bed.xfer(other, pos, s)
 
-    return Action(s, pre=[pre], main=[main], post=[post])
+    return Action(s, pre=[pre], main=[main], post=[] if stays else [post])
+
+
+def _stays(gen: _Gen, s: int) -> bool:
+    """Whether the loop of `s` waits on the facing needle for the next stitch of its wale
+    (a flat purl, or an action with `transfer_back: false`), rather than going home."""
+    return _purl_continues(gen, s) or actions.keeps_loop(gen, s)
+
+
+def _purl_continues(gen: _Gen, s: int) -> bool:
+    """Whether purl `s`'s new loop may stay on the facing needle (xionluhnis/knitsketching
+    issue #5): on a flat course whose next stitch in the wale is a purl on the same needle,
+    taking the loop home and back again would only wear the yarn. `_shaping` leaves such a
+    loop where it is, and the next purl knits it there."""
+    g = gen.g
+    kid = int(g.wale_next[s, 0])
+    return (kid >= 0 and int(g.wale_next[s, 1]) < 0 and int(g.wale_prev[kid, 1]) < 0
+            and not g.course_circular[g.course[s]] and not g.course_circular[g.course[kid]]
+            and int(g.instr[kid]) == PURL and gen.pos(kid) == gen.pos(s)
+            and int(g.action[kid]) < 0
+            and not gen.carrying[g.course[s]] and not gen.carrying[g.course[kid]])
+
+
+def _miss(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos) -> None:
+    """M: the needle does not knit, its loop stays and stands for `s` (a slip stitch: the
+    next course knits through the old loop, and the yarn floats past)."""
+    bed = gen.bed
+    cast.emit(ctx, "miss", d, pos, s)
+    for x in bed.at.pop(pos, set()):
+        del bed.where[x]
+    if bed.loops.get(pos, 0):
+        bed.place(s, pos)
 
 
 def _increases(gen: _Gen, chunk: np.ndarray, primary: dict[int, int]) -> dict[int, tuple]:

@@ -52,7 +52,7 @@ def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> Sti
         env = run.envs.setdefault(layer.origin, QueryEnv(params=dict(skel.params), lets={}))
         run.stmts((layer.stmt,), node, env, None, 0)
     return dataclasses.replace(g, instr=run.instr, action=run.action, origin=run.origin,
-                               spans=run.spans)
+                               spans=run.spans, origin_via={**g.origin_via, **run.via})
 
 
 @dataclasses.dataclass
@@ -68,16 +68,25 @@ class _Run:
     warned: set = dataclasses.field(default_factory=set)
     coords: Coords | None = None
     span_ids: dict = dataclasses.field(default_factory=dict)
+    chain: list = dataclasses.field(default_factory=list)
+    """The `apply` statements being expanded, outermost first."""
+    via: dict = dataclasses.field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.coords = coords(self.g)  # once for every query of every layer
 
     def mark(self, mask: np.ndarray, span) -> None:
-        """Record `span` (a pattern statement) as the origin of the stitches in `mask`."""
-        k = self.span_ids.get(span)
+        """Record `span` (a pattern statement) as the origin of the stitches in `mask`.
+        Inside applied definitions the origin is the designer's outermost `apply`, and the
+        statements it expanded through (down to `span`) are kept as `origin_via`."""
+        outer = self.chain[0] if self.chain else span
+        via = (*self.chain[1:], span) if self.chain else ()
+        k = self.span_ids.get((outer, via))
         if k is None:
-            k = self.span_ids[span] = len(self.spans)
-            self.spans.append(span)
+            k = self.span_ids[(outer, via)] = len(self.spans)
+            self.spans.append(outer)
+            if via:
+                self.via[k] = via
         self.origin[mask] = k
 
     def stmts(self, body, node: int | None, env: QueryEnv, within: np.ndarray | None,
@@ -98,7 +107,7 @@ class _Run:
 
     def select(self, node: int | None, where, env: QueryEnv,
                within: np.ndarray | None) -> np.ndarray:
-        mask = evaluate_query(self.g, node, where, env, self.diags, c=self.coords)
+        mask = evaluate_query(self.g, node, where, env, self.diags, c=self.coords, within=within)
         return mask if within is None else mask & within
 
     def apply(self, stmt: ast.ApplyStmt, node: int | None, env: QueryEnv,
@@ -116,7 +125,9 @@ class _Run:
             return
         sel = self.select(node, stmt.where, env, within)
         inner = QueryEnv(params=env.params, lets={}, values=values)
+        self.chain.append(stmt.span)
         self.stmts(pdef.body, node, inner, sel, depth + 1)
+        self.chain.pop()
 
     def arguments(self, pdef: ast.PatternDef, stmt: ast.ApplyStmt,
                   env: QueryEnv) -> dict[str, object] | None:
