@@ -45,18 +45,15 @@ from knitc.ir.stitch_graph import COURSE_KINDS, INSTRUCTIONS, StitchGraph
 from knitc.passes import actions
 from knitc.passes import casting as cast
 from knitc.passes.bed import BEDS, Bed, Pos, Unsupported
-from knitc.passes.instructions import MOVES, cables, neighbour, right_left, via_notes
+from knitc.passes.instructions import CROSSES, MOVES, cables, neighbour, right_left, via_notes
 from knitc.passes.steps import Action, run_actions
 from knitc.passes.transfers import move
 from knitc.source import Span
 
 SHORT_ROW = COURSE_KINDS.index("short_row")
 PURL, STACK = INSTRUCTIONS.index("P"), INSTRUCTIONS.index("S")
-XR_UP, XR_DOWN = INSTRUCTIONS.index("XR+"), INSTRUCTIONS.index("XR-")
-RIGHT_CROSS = {XR_UP: INSTRUCTIONS.index("XL-"), XR_DOWN: INSTRUCTIONS.index("XL+")}
-"""A right-going cross run -> the complement run that follows it (`rewire`)."""
-CROSS_CODES = (XR_UP, XR_DOWN, *RIGHT_CROSS.values())
-MOVE_CODES = list(MOVES)
+CARRIED = list(MOVES) + list(CROSSES)
+"""Instructions whose loops `_carry` takes elsewhere after their course."""
 
 
 # ---- options ----------------------------------------------------------------------------------
@@ -146,12 +143,14 @@ class _Gen:
     """What `passes.actions` computes once per program (its own business)."""
     carrying: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     """Per course: whether moves or crosses carry loops after it (`_carry`)."""
+    sides: tuple | None = None
+    """`instructions.right_left(g)`, computed when a course first carries loops."""
 
     def __post_init__(self) -> None:
         self.knit_bed, self.knit_needle = sc.knit_positions(self.sched, self.g.n_stitches)
         g = self.g
         self.carrying = np.zeros(g.n_courses, bool)
-        self.carrying[g.course[np.isin(g.instr, MOVE_CODES + list(CROSS_CODES))]] = True
+        self.carrying[g.course[np.isin(g.instr, CARRIED)]] = True
 
     def pos(self, s: int) -> Pos:
         return BEDS[int(self.knit_bed[s])], int(self.knit_needle[s])
@@ -386,9 +385,11 @@ def _carry(gen: _Gen, chunk: np.ndarray) -> None:
     g, bed = gen.g, gen.bed
     ids = gen.t.stitch[chunk]
     codes = g.instr[ids]
-    if not np.isin(codes, MOVE_CODES + list(CROSS_CODES)).any():
+    if not gen.carrying[int(g.course[ids[0]])]:
         return
-    right, left = right_left(g)  # crossing and lace courses only, so not cached
+    if gen.sides is None:
+        gen.sides = right_left(g)
+    right, left = gen.sides
     home = {int(x): gen.pos(int(x)) for x in ids}
     rounds: list[list[tuple[int, Pos, Pos]]] = [[], [], [], []]  # upper, relief, lower, moves
     involved: set[int] = set()
@@ -399,7 +400,7 @@ def _carry(gen: _Gen, chunk: np.ndarray) -> None:
             part = runs[0] if i < cab.first else 1 if i < cab.first + cab.relief else runs[1]
             if j != i:
                 rounds[part].append((x, home[x], home[cab.group[j]]))
-    for x in ids[np.isin(codes, MOVE_CODES)].tolist():
+    for x in ids[np.isin(codes, list(MOVES))].tolist():
         t = neighbour(right, left, x, MOVES[int(g.instr[x])])
         involved |= {x, t}
         rounds[3].append((x, home[x], home[t]))
@@ -419,7 +420,7 @@ def _carry(gen: _Gen, chunk: np.ndarray) -> None:
             continue
         waiting[x] = _free_facing(gen, here)
         bed.xfer(here, waiting[x], x)
-    landing = {dst for x, _, dst in moves if int(g.instr[x]) in MOVE_CODES}
+    landing = {dst for x, _, dst in moves if int(g.instr[x]) in MOVES}
     lifted = []
     for t in sorted(involved):
         if int(g.instr[t]) == STACK and home[t] in landing and bed.where.get(t) == home[t]:
