@@ -34,6 +34,8 @@ print(json.dumps({"seconds": round(dt, 3), "stage": stage, "stitches": stitches,
 """
 
 SCALING = [("tube-10k", 100, 50), ("tube-100k", 400, 125), ("tube-1M", 1000, 500)]
+LACE = [("lace-10k", 100, 100), ("lace-100k", 400, 250)]
+"""Flat sheets under eyelet lace and cables: every other course carries loops (`_carry`)."""
 
 
 def run_case(path: Path) -> dict:
@@ -55,6 +57,14 @@ def main() -> int:
         f = tmp / f"{name}.knit"
         f.write_text(f"// {name}: a plain tube of {length} courses x {2 * width} stitches\n"
                      f"tube t {{ length: {length}, width: {width} }}\n")
+        cases.append((name, f))
+    for name, length, width in LACE:
+        f = tmp / f"{name}.knit"
+        f.write_text(f"// {name}: a sheet of {length} courses x {width} wales, lace and cables\n"
+                     "import std.stitches (cable, eyelets)\n"
+                     f"sheet s {{ length: {length}, width: {width} }}\n"
+                     "pattern s {\n  apply eyelets() where wales(0.05:0.5)\n"
+                     "  apply cable(2, 8) where wales(0.5:0.95)\n}\n")
         cases.append((name, f))
     results = []
     for name, path in cases:

@@ -116,3 +116,16 @@ def test_patterns_never_create_or_delete_stitches(prog):
         assert np.array_equal(getattr(again, name), getattr(raw, name)), name
     assert np.array_equal(again.instr, patterned.instr)  # the driver runs the same pass
     assert again.instr.max(initial=0) < len(INSTRUCTIONS)
+
+
+def test_an_applied_pattern_counts_from_the_corner_of_its_selection():
+    """rib(1, 1) on wales 3..8 starts with a knit wale at wale 3 (not where the node's own
+    wale parity would put it), and garter's first purl course is the selection's second."""
+    src = ("import std.stitches (rib, garter)\nsheet s { length: 8  width: 12 }\n"
+           "pattern s {\n  apply rib(1, 1) where wales(3:8) and courses(0:3)\n"
+           "  apply garter() where courses(5:7)\n}\n")
+    g = build(src, "stitch-graph").graph
+    c = coords(g)
+    rib = (c.wale >= 3) & (c.wale <= 8) & (c.course <= 3)
+    assert np.array_equal((g.instr == P) & rib, rib & ((c.wale - 3) % 2 == 1))
+    assert np.array_equal((g.instr == P) & (c.course >= 5), c.course == 6)

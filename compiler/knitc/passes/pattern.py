@@ -7,9 +7,9 @@ layers in source order, then `pattern after`; later writes win. Statements:
 - `let NAME = Q` names a selection for the layer's later statements;
 - `apply DEF(args) where Q` runs a pattern definition on the selection: its statements
   select within the caller's selection, with the definition's formals bound to the
-  arguments (bare names in its queries and filters). Its queries count courses and wales
-  from the node, not from the selection: the same as the original's for the whole node
-  (the common `apply rib(1, 1)`), an approximation for partial selections;
+  arguments (bare names in its queries and filters), and its courses and wales count from
+  the selection's corner (`query.relative`), so a rib or a cable applied to a panel
+  starts its repeat at the panel's edge;
 - `use ACTION where Q` attaches a stitch action (`passes.actions`);
 - `draw` / `stretch` / `tile GRID where Q` write a drawn grid of instructions
   (`passes.drawing`).
@@ -30,7 +30,7 @@ from knitc.evaluate import EvalError, Evaluator, Word
 from knitc.ir import skeleton as sk
 from knitc.ir.stitch_graph import INSTRUCTIONS, StitchGraph
 from knitc.passes import actions, drawing
-from knitc.passes.query import Coords, QueryEnv, coords, evaluate_query
+from knitc.passes.query import Coords, QueryEnv, coords, evaluate_query, relative
 from knitc.syntax import ast
 
 MAX_DEPTH = 32
@@ -126,7 +126,10 @@ class _Run:
         sel = self.select(node, stmt.where, env, within)
         inner = QueryEnv(params=env.params, lets={}, values=values)
         self.chain.append(stmt.span)
+        outer = self.coords
+        self.coords = relative(self.g, outer, sel)  # the definition counts from its corner
         self.stmts(pdef.body, node, inner, sel, depth + 1)
+        self.coords = outer
         self.chain.pop()
 
     def arguments(self, pdef: ast.PatternDef, stmt: ast.ApplyStmt,

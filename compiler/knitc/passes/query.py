@@ -123,6 +123,32 @@ def _group_rank(keys: tuple[np.ndarray, ...], group: np.ndarray) -> tuple[np.nda
     return rank, sizes
 
 
+def relative(g: StitchGraph, c: Coords, sel: np.ndarray) -> Coords:
+    """`c` counted from a selection: courses from its first course in each node, wales from
+    its first wale in each course (and the ends to its last), so that a pattern applied to
+    part of a piece starts its repeat at that part's corner, not at the piece's. Stitches
+    outside the selection keep their coordinates (queries inside it never see them)."""
+    if not sel.any():
+        return c
+    big = np.iinfo(np.int64).max
+    node, course_id = g.node.astype(np.int64), g.course.astype(np.int64)
+
+    def span(key: np.ndarray, size: int, val: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lo, hi = np.full(size, big, np.int64), np.full(size, -1, np.int64)
+        np.minimum.at(lo, key[sel], val[sel])
+        np.maximum.at(hi, key[sel], val[sel])
+        return lo[key], hi[key]
+
+    clo, chi = span(node, len(g.node_names), c.course)
+    wlo, whi = span(course_id, g.n_courses, c.wale)
+    inside_c, inside_w = clo != big, wlo != big
+    return dataclasses.replace(
+        c, course=np.where(inside_c, c.course - clo, c.course),
+        course_end=np.where(inside_c, chi - clo, c.course_end),
+        wale=np.where(inside_w, c.wale - wlo, c.wale),
+        wale_end=np.where(inside_w, whi - wlo, c.wale_end))
+
+
 def coords(g: StitchGraph) -> Coords:
     """Compute the per-node course/wale coordinates of every stitch (vectorised)."""
     n = g.n_stitches
