@@ -691,3 +691,16 @@ def test_local_definition_shadows_import():
 
 def test_local_definition_twice():
     assert "E205" in errors(compile_("pattern p() { set K }\npattern p() { set P }\n"))
+
+
+def test_a_selective_import_brings_what_the_definition_applies(tmp_path):
+    """`import "m.knit" (outer)` makes `outer`'s own `apply inner()` work, although
+    `inner` was not named (definitions share one namespace)."""
+    (tmp_path / "m.knit").write_text("pattern inner() { set P }\n"
+                                     "pattern outer() { apply inner() where courses(0) }\n")
+    main = tmp_path / "main.knit"
+    main.write_text('import "m.knit" (outer)\nsheet s { length: 3  width: 4 }\n'
+                    "pattern s { apply outer() }\n")
+    r = compile_source(main.read_text(), str(main), until="stitch-graph")
+    assert not r.diagnostics.has_errors, r.diagnostics.render()
+    assert int((r.graph.instr == 1).sum()) == 4  # course 0 purled through `inner`

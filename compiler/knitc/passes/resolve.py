@@ -207,9 +207,10 @@ class _Loader:
                     defs.lenient.add(n.name)
                 else:
                     wanted[n.name] = n
+        needed = None if wanted is None else _with_dependencies(set(wanted), sub)
         for table in (sub.patterns, sub.actions, sub.shapers):
             for name, d in table.items():
-                if wanted is None or name in wanted:
+                if needed is None or name in needed:
                     defs.add(d, self.diags, imported=True, at=imp.span)
 
     @staticmethod
@@ -218,6 +219,28 @@ class _Loader:
         std = stdlib_root().joinpath("std")
         names = sorted(f"std.{p.name[:-5]}" for p in std.iterdir() if p.name.endswith(".knit"))
         return _suggest(dotted, names) or "available: " + ", ".join(names)
+
+
+def _with_dependencies(names: set[str], sub: _Defs) -> set[str]:
+    """`names` and, transitively, the module's definitions they `apply` or `use`: importing
+    a pattern brings what it is built from (definitions share one namespace, so a
+    selective import would otherwise leave its body pointing at names nobody imported)."""
+    todo, out = list(names), set(names)
+    while todo:
+        d = sub.patterns.get(todo.pop())
+        if d is None:
+            continue
+        for ref in _references(d.body):
+            if ref not in out and sub.kind_of(ref) is not None:
+                out.add(ref)
+                todo.append(ref)
+    return out
+
+
+def _references(stmts) -> list[str]:
+    """Definition names applied or used by pattern statements (not in expressions)."""
+    return [st.pattern.name if isinstance(st, ast.ApplyStmt) else st.action.name
+            for st in stmts if isinstance(st, ast.ApplyStmt | ast.UseStmt)]
 
 
 # ---- the resolver -------------------------------------------------------------------------------
