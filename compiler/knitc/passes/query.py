@@ -195,7 +195,11 @@ class _Eval:
         self.env = env
         self.c = coords(g) if c is None else c
         self.domain = (g.node == node) if node is not None else np.ones(g.n_stitches, bool)
-        self.scope = self.domain if within is None else self.domain & within
+        self.piece = self.domain
+        """The layer's node (all stitches for global layers), whatever the selection."""
+        if within is not None:  # inside an applied definition: the caller's selection is
+            self.domain = self.domain & within  # its whole world (`all()`, `boundaries()`)
+        self.scope = self.domain
         """The layer's stitches: the default frame of drawn queries and grids."""
         self._nbrs: np.ndarray | None = None
 
@@ -271,11 +275,10 @@ class _Eval:
                                  q.span, hint="write `Q.neighbors(R)`, e.g. "
                                               "`wales(0).neighbors(1)`")
             return self.neighbors(base, args[0] if args else None)
-        if name == "boundaries":
-            if base is None:
-                return d & c.edge
-            outside = grow(self.g, d & ~base, d, self.nbrs()) & ~(d & ~base)
-            return base & (c.edge | outside)
+        if name == "boundaries":  # at the piece's edge, or next to a stitch not selected
+            base = d if base is None else base
+            rest = self.piece & ~base
+            return base & (c.edge | (grow(self.g, rest, self.piece, self.nbrs()) & ~rest))
         if name == "named":
             named = np.zeros(self.g.n_courses, dtype=bool)
             named[list(self.g.course_names)] = True
