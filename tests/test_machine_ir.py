@@ -192,6 +192,7 @@ def test_op_text_for_every_kind():
     p.amiss("b7")
     p.rack(0.25)
     p.stitch_number(61)
+    p.emit(Op("stitch", value=(10, 15)))
     p.speed(3)
     p.presser("auto")
     p.pause("check the yarn")
@@ -202,7 +203,7 @@ def test_op_text_for_every_kind():
     assert [str(op) for op in p] == [
         "in 4 5", "inhook 3", "knit + f3 3", "tuck - b4 3 4", "split + f3 b3 3", "xfer f3 b3",
         "drop f3", "miss - f0 3", "amiss b7", "rack 0.25", "x-stitch-number 61",
-        "x-speed-number 3", "x-presser-mode auto", "pause", "; hello", "releasehook 3",
+        "stitch 10 15", "x-speed-number 3", "x-presser-mode auto", "pause", "; hello", "releasehook 3",
         "out 4", "outhook 3 5",
     ]
     assert {op.kind for op in p} == set(KINDS)

@@ -29,11 +29,13 @@ MAGIC = ";!knitout-2"
 
 def header_lines(prog: MachineProgram) -> list[str]:
     m = prog.machine
+    width = [] if prog.width is None else [f";;Width: {prog.width}"]
     return [
         MAGIC,
         f";;Machine: {m.name}",
         f";;Gauge: {m.gauge}",
         ";;Carriers: " + " ".join(str(c) for c in m.carrier_names),
+        *width,
         f";;Position: {prog.position}",
     ]
 

@@ -13,7 +13,9 @@ Conventions (Knitout v0.6, shared/research/knitout-and-dat.md §1):
 - at racking R, back needle b(k) faces front needle f(k + R): R = front index - back index;
 - carriers are 1-based integers (1..machine.carriers); a carrier set is a tuple, in order;
 - `value` is the racking of ``rack``, the number of ``x-stitch-number`` / ``x-speed-number``,
-  the mode of ``x-presser-mode``, the text of ``comment`` and the (optional) message of
+  the ``(L, T)`` pair of ``stitch L T`` (Knitout's leading/stitch values; the Shima back end
+  maps them to a stitch number through the converter's table), the mode of
+  ``x-presser-mode``, the text of ``comment`` and the (optional) message of
   ``pause``.
 
 Building a program reads like the Knitout it makes::
@@ -146,7 +148,7 @@ class Machine:
 # ---- operations -------------------------------------------------------------------------------
 
 KINDS = ("in", "inhook", "releasehook", "out", "outhook", "knit", "tuck", "split", "xfer",
-         "drop", "miss", "amiss", "rack", "stitch_number", "speed", "presser", "pause",
+         "drop", "miss", "amiss", "rack", "stitch", "stitch_number", "speed", "presser", "pause",
          "comment")
 """Every op kind, in a fixed order (also the order of `stats()["kinds"]`)."""
 
@@ -157,7 +159,7 @@ DIRECTED_KINDS = frozenset({"knit", "tuck", "split", "miss"})
 `xfer`, a `knit` without carriers a `drop`, a `tuck` without carriers an `amiss`)."""
 LOOP_KINDS = frozenset({"knit", "tuck", "split"})
 """Ops that form a new loop."""
-SETTING_KINDS = frozenset({"stitch_number", "speed", "presser"})
+SETTING_KINDS = frozenset({"stitch", "stitch_number", "speed", "presser"})
 PRESSER_MODES = ("on", "off", "auto")
 
 KNITOUT_OPCODE = {"stitch_number": "x-stitch-number", "speed": "x-speed-number",
@@ -211,6 +213,9 @@ class Op:
             return f"{k} {self.needle}"
         if k == "rack":
             return f"rack {format_number(self.value)}"  # type: ignore[arg-type]
+        if k == "stitch":
+            lead, tight = self.value  # type: ignore[misc]
+            return f"stitch {format_number(lead)} {format_number(tight)}"
         if k in ("stitch_number", "speed"):
             return f"{KNITOUT_OPCODE[k]} {format_number(self.value)}"  # type: ignore[arg-type]
         if k == "presser":
@@ -270,6 +275,9 @@ class MachineProgram:
     ops: list[Op] = field(default_factory=list)
     position: str = "Center"
     """The ``;;Position:`` header: Left, Center, Right or Keep."""
+    width: int | None = None
+    """The ``;;Width:`` header (bed width in needles, used by the Shima back end to place a
+    Center or Keep design); None when absent."""
     _racking: float = field(default=0, init=False, repr=False, compare=False)
     _settings: dict[str, Any] = field(default_factory=dict, init=False, repr=False,
                                       compare=False)
@@ -550,6 +558,10 @@ def op_problems(op: Op, machine: Machine) -> list[str]:
     if k == "rack":
         if not _is_number(op.value):
             problems.append(f"racking {op.value!r} is not a number")
+    elif k == "stitch":
+        if not (isinstance(op.value, tuple) and len(op.value) == 2
+                and all(_is_number(v) for v in op.value)):
+            problems.append(f"stitch values {op.value!r} are not a pair of numbers")
     elif k in ("stitch_number", "speed"):
         if not isinstance(op.value, int) or isinstance(op.value, bool) or op.value < 0:
             problems.append(f"value {op.value!r} is not a non-negative integer")

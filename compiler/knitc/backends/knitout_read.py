@@ -1,0 +1,580 @@
+"""Knitout reader: any valid Knitout v0.6 text -> `MachineProgram` (for `knitc k2dat`).
+
+`knitc.backends.knitout.read_knitout` reads back only what knitc writes; this module reads
+what anyone writes (shared/research/knitout-and-dat.md §1), keeps every op's source line,
+and rejects invalid input with located errors, so `knitc k2dat` can point at the Knitout
+line a DAT cannot express.
+
+Format (§1.1-§1.4): line 1 is ``;!knitout-N``; then the header, consecutive ``;;Name: value``
+lines; then one operation per line, ``opcode args... [; comment]``, tokens separated by
+spaces or tabs (CRLF line ends are accepted with a warning). Headers read: ``Carriers``
+(required by the spec; missing -> the machine's 1..10, with a warning), ``Machine``,
+``Gauge``, ``Position``, ``Width`` (SWG converter: the bed width used to place a Center or
+Keep design; stored in `MachineProgram.width`), ``Yarn-*`` and ``X-*`` (accepted, ignored).
+
+How Knitout maps onto the IR:
+
+* carriers are numbered by their place in the ``Carriers`` header (front to back, the order
+  the DAT's carrier codes use): the usual ``1 2 ... 10`` keep their numbers; other names
+  (``A B C``, a multi-rail ``1,2;3,4``) are renumbered 1..n with a warning;
+* the synonyms are folded as the spec defines them: ``knit D N`` with no carriers is
+  ``drop N``, ``tuck D N`` is ``amiss N``, ``split D N N2`` is ``xfer N N2`` (the direction
+  of a carrier-less op is meaningless and dropped);
+* ``stitch L T`` becomes an op of kind ``stitch`` whose value is the pair ``(L, T)``
+  (numbers, ints when integral). The Shima writer maps it through the converter's table
+  (research §2.6.7: key (T, L), e.g. ``stitch 10 15`` -> stitch number 85) and must reject a
+  pair the table lacks, locating the error at the op's span; ``x-stitch-number K``,
+  ``x-speed-number K`` and ``x-presser-mode M`` become ``stitch_number``, ``speed`` and
+  ``presser`` ops; ``pause`` a ``pause`` op; other ``x-`` extensions are ignored with a
+  warning (spec: readers warn and ignore);
+* whole-line comments become ``comment`` ops (unless ``comments=False``); trailing comments,
+  ``;!source:`` included, are dropped;
+* every op's `span` is ``Span(path, line, col, line, end_col, start, end)`` of its
+  instruction (offsets count code points of `text`), so a later stage (the DAT writer) can
+  point at the Knitout line.
+
+Rules checked here, as the spec states them (§1.7 "spec-level"); machine limits (racking
+range and quarter pitch, needle range, loops, carriers left in, 3+ carriers per pass, the
+hook's direction) belong to `knitc.passes.simulate` and the DAT writer:
+
+  E910  magic line, header syntax and values (Gauge > 0, Width a positive integer,
+        Position one of Left/Center/Right/Keep, Carriers names)
+  E911  unknown operation (anything but the spec's opcodes and ``x-`` extensions)
+  E912  arguments: wrong count, direction not ``+``/``-``, numbers (racking, stitch
+        values, extension values) malformed, presser mode not on/off/auto
+  E913  needle not ``f``/``b``/``fs``/``bs`` + integer (negative allowed)
+  E914  carriers: not declared in the header, listed twice, none where some are needed
+        (``in``, ``miss``, ...)
+  E915  carrier state: using or taking out a carrier that is not in, bringing in one that
+        is, ``releasehook`` of a carrier not on the hook or that has not stitched yet
+  E916  ``xfer``/``split`` between needles that are not on opposite beds and aligned at
+        the current racking, or from a slider to a slider
+  W910  reader warnings: newer Knitout version, unknown header, missing Carriers header,
+        renamed carriers, CRLF line ends, ignored extension
+
+Errors are collected (up to `MAX_ERRORS`) and raised together as `KnitoutErrors`; the
+line parser keeps going after a bad line, skipping its op. `knitout_diagnostics` turns
+them into `Diagnostics` for the compiler-style rendering of the CLI.
+
+Speed: one ``str.split`` per line, a dict dispatch on the opcode and caches for needles and
+carrier sets, no regular expression on the common path: a 100k-line file reads in well
+under a second.
+"""
+
+from __future__ import annotations
+
+import gc
+import re
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+from knitc.diagnostics import Diagnostics
+from knitc.ir.machine import Machine, MachineProgram, Needle, Op
+from knitc.source import SourceFile, Span
+
+MAX_ERRORS = 100
+KNOWN_VERSION = 2
+POSITIONS = ("Left", "Center", "Right", "Keep")
+
+_MAGIC = re.compile(r";!knitout-(\d+)\Z")
+_NEEDLE = re.compile(r"(fs|bs|f|b)(-?[0-9]+)\Z")
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)\Z")
+_UINT = re.compile(r"\+?[0-9]+\Z")
+_TOKEN = re.compile(r"[^ \t\r\f\v]+")
+
+
+# ---- errors -----------------------------------------------------------------------------------
+
+class KnitoutError(ValueError):
+    """One problem in a Knitout text, at 1-based `line` and `col` (..`end_col`, exclusive)."""
+
+    def __init__(self, message: str, line: int, col: int = 1, *, end_col: int | None = None,
+                 code: str = "E912", warning: bool = False) -> None:
+        super().__init__(f"{line}:{col}: {message}")
+        self.message = message
+        self.line = line
+        self.col = col
+        self.end_col = end_col if end_col is not None else col + 1
+        self.code = code
+        self.warning = warning
+
+    def span(self, path: str) -> Span:
+        return Span(path, self.line, self.col, self.line, self.end_col)
+
+
+class KnitoutErrors(ValueError):
+    """Every error found in a Knitout text (in line order), and the reader's warnings."""
+
+    def __init__(self, errors: Iterable[KnitoutError],
+                 warnings: Iterable[KnitoutError] = ()) -> None:
+        errors = list(errors)
+        first = errors[0] if errors else None
+        more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+        super().__init__(f"{first}{more}" if first else "no errors")
+        self.errors = errors
+        self.warnings = list(warnings)
+
+
+def knitout_diagnostics(path: str, text: str, errors: Iterable[KnitoutError] = (),
+                        warnings: Iterable[KnitoutError] = ()) -> Diagnostics:
+    """The errors and warnings as compiler diagnostics on `path` (source attached, so the
+    renderer shows the line and a caret)."""
+    diags = Diagnostics()
+    diags.add_source(SourceFile(path, text))
+    for w in warnings:
+        diags.warning(w.code, w.message, w.span(path))
+    for e in errors:
+        diags.error(e.code, e.message, e.span(path))
+    return diags
+
+
+# ---- the reader -------------------------------------------------------------------------------
+
+def _number(text: str) -> int | float | None:
+    """A Knitout number (``2``, ``-0.75``, ``.25``) or None; ints when integral."""
+    if _NUMBER.match(text) is None:
+        return None
+    v = float(text)
+    return int(v) if v.is_integer() else v
+
+
+_DIRS = {"+": 1, "-": -1}
+_ARITY_HINT = {
+    "knit": "knit D N CS", "tuck": "tuck D N CS", "miss": "miss D N CS",
+    "split": "split D N N2 CS", "xfer": "xfer N N2", "drop": "drop N", "amiss": "amiss N",
+    "rack": "rack R", "stitch": "stitch L T", "x-stitch-number": "x-stitch-number K",
+    "x-speed-number": "x-speed-number K", "x-presser-mode": "x-presser-mode on|off|auto",
+    "pause": "pause",
+}
+_CARRIER_OPS = ("in", "inhook", "releasehook", "out", "outhook")
+_KNOWN_OPS = frozenset(_ARITY_HINT) | frozenset(_CARRIER_OPS)
+
+
+class _Bad(Exception):
+    """Internal: abandon the current line; `token` is the index of the offending token
+    (-1: the whole instruction)."""
+
+    def __init__(self, message: str, token: int = -1, code: str = "E912") -> None:
+        self.message, self.token, self.code = message, token, code
+
+
+@dataclass
+class _Header:
+    machine: str = "SWG091N2"
+    gauge: int | float = 15
+    carriers: list[str] | None = None
+    position: str = "Center"
+    width: int | None = None
+
+
+class _Reader:
+    def __init__(self, text: str, path: str, comments: bool) -> None:
+        self.text = text
+        self.path = path
+        self.comments = comments
+        self.errors: list[KnitoutError] = []
+        self.warnings: list[KnitoutError] = []
+        self.ops: list[Op] = []
+        self.racking: float = 0
+        self.names: dict[str, int] = {}
+        self.needles: dict[str, Needle] = {}
+        self.csets: dict[tuple[str, ...], tuple[int, ...]] = {}
+        self.active: dict[int, bool] = {}  # carrier in action -> has made a stitch
+        self.hook: list[int] = []
+        self.not_in: set[int] = set()  # reported as used while out (once each)
+        # where the current line is
+        self.lineno = 0
+        self.raw = ""
+        self.code = ""
+
+    # -- reporting ----------------------------------------------------------------------------
+
+    def _columns(self, token: int) -> tuple[int, int]:
+        """1-based [col, end_col) of token `token` of the current line's instruction (-1:
+        the whole instruction)."""
+        spans = [(m.start() + 1, m.end() + 1) for m in _TOKEN.finditer(self.code)]
+        if not spans:
+            return 1, max(len(self.raw), 1) + 1
+        if token < 0 or token >= len(spans):
+            return spans[0][0], spans[-1][1]
+        return spans[token]
+
+    def error(self, message: str, token: int = -1, code: str = "E912") -> None:
+        col, end = self._columns(token)
+        self.errors.append(KnitoutError(message, self.lineno, col, end_col=end, code=code))
+        if len(self.errors) >= MAX_ERRORS:
+            raise _TooMany
+
+    def warn(self, message: str, token: int = -1, *, line: int | None = None) -> None:
+        """A warning at `token` of the current line, or at the start of `line`."""
+        if line is None:
+            c, end = self._columns(token)
+            line = self.lineno
+        else:
+            c, end = 1, 2
+        self.warnings.append(KnitoutError(message, line, c, end_col=end, code="W910",
+                                          warning=True))
+
+    # -- header -------------------------------------------------------------------------------
+
+    def header(self, lines: list[str]) -> tuple[_Header, int]:
+        """Read the magic line and the header; returns it and the index of the first body
+        line."""
+        h = _Header()
+        self.lineno, self.raw = 1, lines[0] if lines else ""
+        self.code = self.raw
+        m = _MAGIC.match(self.raw)
+        if m is None:
+            self.error(f"the first line must be the Knitout magic `;!knitout-2`, not "
+                       f"`{self.raw[:40]}`", code="E910")
+        elif int(m.group(1)) > KNOWN_VERSION:
+            self.warn(f"Knitout version {m.group(1)} is newer than the {KNOWN_VERSION} "
+                      "this reader knows")
+        # without the magic, the first line is still read as what it looks like
+        i = 1 if m is not None or self.raw.startswith(";") and not self.raw.startswith(";;") \
+            else 0
+        seen: set[str] = set()
+        while i < len(lines):
+            raw = lines[i]
+            if not raw.startswith(";;") or ": " not in raw:
+                break
+            self.lineno, self.raw, self.code = i + 1, raw, raw
+            name, value = raw[2:].split(": ", 1)
+            if name in seen:
+                self.warn(f"header `{name}` given twice; the last value is used")
+            seen.add(name)
+            self._header_line(h, name, value.strip())
+            i += 1
+        if h.carriers is None:
+            self.warn("no `;;Carriers:` header (the spec requires one); assuming carriers "
+                      "1 2 3 4 5 6 7 8 9 10", line=min(i + 1, max(len(lines), 1)))
+            h.carriers = [str(c) for c in range(1, 11)]
+        return h, i
+
+    def _header_line(self, h: _Header, name: str, value: str) -> None:
+        def bad(msg: str) -> None:
+            self.error(f"`;;{name}:` {msg}, not `{value}`", code="E910")
+
+        if name == "Carriers":
+            names = [n for rail in value.split() for side in rail.split(";")
+                     for n in side.split(",")]
+            if not names or any(not n for n in names):
+                return bad("needs carrier names separated by spaces")
+            if len(set(names)) != len(names):
+                return bad("names a carrier twice")
+            h.carriers = names
+            if names != [str(k) for k in range(1, len(names) + 1)]:
+                self.warn("carriers are numbered by their place in the `;;Carriers:` header: "
+                          + ", ".join(f"{n} -> {k}" for k, n in enumerate(names, 1)))
+        elif name == "Machine":
+            h.machine = value or h.machine
+        elif name == "Gauge":
+            g = _number(value)
+            if g is None or g <= 0:
+                return bad("must be a number greater than zero")
+            h.gauge = g
+        elif name == "Position":
+            if value not in POSITIONS:
+                return bad("must be Left, Center, Right or Keep")
+            h.position = value
+        elif name == "Width":
+            if not value.isdigit() or not value.isascii() or int(value) <= 0:
+                return bad("must be a positive integer (the bed width in needles)")
+            h.width = int(value)
+        elif name.startswith(("Yarn-", "X-")):
+            pass
+        else:
+            self.warn(f"unknown header `;;{name}:` ignored")
+
+    # -- body ---------------------------------------------------------------------------------
+
+    def needle(self, tokens: list[str], k: int) -> Needle:
+        if k >= len(tokens):
+            raise _Bad("a needle is missing")
+        t = tokens[k]
+        n = self.needles.get(t)
+        if n is None:
+            m = _NEEDLE.match(t)
+            if m is None:
+                raise _Bad(f"`{t}` is not a needle (f, b, fs or bs followed by an integer, "
+                           "e.g. f12, b-3, fs0)", k, "E913")
+            n = self.needles[t] = Needle(m.group(1), int(m.group(2)))
+        return n
+
+    def carriers(self, tokens: list[str], k: int) -> tuple[int, ...]:
+        key = tuple(tokens[k:])
+        cs = self.csets.get(key)
+        if cs is None:
+            names = self.names
+            out: list[int] = []
+            for j, t in enumerate(key, k):
+                c = names.get(t)
+                if c is None:
+                    raise _Bad(f"carrier `{t}` is not declared in the `;;Carriers:` header "
+                               f"({' '.join(names)})", j, "E914")
+                if c in out:
+                    raise _Bad(f"carrier `{t}` is listed twice", j, "E914")
+                out.append(c)
+            cs = self.csets[key] = tuple(out)
+        return cs
+
+    def direction(self, tokens: list[str]) -> int:
+        if len(tokens) < 2:
+            raise _Bad(f"`{tokens[0]}` needs a direction: {_ARITY_HINT[tokens[0]]}")
+        d = _DIRS.get(tokens[1])
+        if d is None:
+            raise _Bad(f"direction must be `+` or `-`, not `{tokens[1]}`", 1)
+        return d
+
+    def use(self, cs: tuple[int, ...], tokens: list[str], first: int) -> None:
+        """Carriers of a knit/tuck/split/miss must be in; they have now stitched."""
+        active = self.active
+        for j, c in enumerate(cs):
+            if c not in active:
+                if c not in self.not_in:
+                    self.not_in.add(c)
+                    self.error(f"carrier {tokens[first + j]} is used but is not in (bring it "
+                               "in with `in` or `inhook` first)", first + j, "E915")
+                continue
+            active[c] = True
+
+    def aligned(self, a: Needle, b: Needle, tokens: list[str], k: int) -> None:
+        if a.is_front == b.is_front or (a.is_slider and b.is_slider):
+            why = "a slider to a slider" if a.is_front != b.is_front else "the same bed"
+            raise _Bad(f"`{tokens[0]}` moves loops from {a} to {b}, on {why} (the target "
+                       "must be on the opposite bed)", k, "E916")
+        front, back = (a, b) if a.is_front else (b, a)
+        if back.index + self.racking != front.index:
+            r = self.racking
+            raise _Bad(f"{a} and {b} are not aligned at racking {_fmt(r)} (they face each "
+                       f"other at racking {front.index - back.index}; at racking R, b(k) "
+                       "faces f(k+R))", k, "E916")
+
+    def arity(self, tokens: list[str], n: int) -> None:
+        if len(tokens) != n:
+            op = tokens[0]
+            raise _Bad(f"`{op}` takes {n - 1} argument{'s' * (n != 2)} "
+                       f"({_ARITY_HINT[op]}), got {len(tokens) - 1}",
+                       n if len(tokens) > n else -1)
+
+    def body(self, lines: list[str], start: int, crlf: list[bool] | None) -> None:
+        """The instruction lines from `start` (`crlf`: which lines lost a CR, or None)."""
+        path, ops, comments = self.path, self.ops, self.comments
+        offset = sum(len(x) + 1 for x in lines[:start])
+        if crlf is not None:
+            offset += sum(crlf[:start])
+        for i in range(start, len(lines)):
+            raw = lines[i]
+            line_start = offset
+            offset += len(raw) + 1
+            if crlf is not None and crlf[i]:
+                offset += 1
+            self.lineno, self.raw = i + 1, raw
+            k = raw.find(";")
+            code = raw if k < 0 else raw[:k]
+            self.code = code
+            tokens = code.split()
+            if not tokens:
+                if k >= 0 and comments and not code.strip():
+                    c = raw[k + 1:]
+                    ops.append(Op("comment", value=c[1:] if c.startswith(" ") else c,
+                                  span=Span(path, i + 1, k + 1, i + 1, len(raw) + 1,
+                                            line_start + k, line_start + len(raw))))
+                continue
+            lead = len(code) - len(code.lstrip())
+            end = len(code.rstrip())
+            span = Span(path, i + 1, lead + 1, i + 1, end + 1, line_start + lead,
+                        line_start + end)
+            try:
+                op = self.instruction(tokens, span)
+            except _Bad as bad:
+                self.error(bad.message, bad.token, bad.code)
+                continue
+            except _Warn as w:
+                self.warn(w.message, 0)
+                continue
+            if op is not None:
+                ops.append(op)
+
+    def instruction(self, t: list[str], span: Span) -> Op | None:
+        """The op of one instruction line (None: nothing to emit); raises _Bad."""
+        op = t[0]
+        if op == "knit" or op == "tuck" or op == "miss":
+            if len(t) == 4:  # the common case, one carrier: straight from the caches
+                d = _DIRS.get(t[1])
+                n = self.needles.get(t[2])
+                cs = self.csets.get((t[3],))
+                if d is not None and n is not None and cs is not None and cs[0] in self.active:
+                    self.active[cs[0]] = True
+                    return Op(op, d, n, None, cs, span=span)
+            d = self.direction(t)
+            n = self.needle(t, 2)
+            cs = self.carriers(t, 3)
+            if not cs:
+                if op == "miss":
+                    raise _Bad("`miss` needs carriers (it moves them without touching the "
+                               "needle)", -1, "E914")
+                return Op("drop" if op == "knit" else "amiss", needle=n, span=span)
+            self.use(cs, t, 3)
+            return Op(op, d, n, None, cs, span=span)
+        if op == "xfer":
+            self.arity(t, 3)
+            a, b = self.needle(t, 1), self.needle(t, 2)
+            self.aligned(a, b, t, 2)
+            return Op("xfer", needle=a, needle2=b, span=span)
+        if op == "split":
+            d = self.direction(t)
+            a, b = self.needle(t, 2), self.needle(t, 3)
+            cs = self.carriers(t, 4)
+            self.aligned(a, b, t, 3)
+            if not cs:
+                return Op("xfer", needle=a, needle2=b, span=span)
+            self.use(cs, t, 4)
+            return Op("split", d, a, b, cs, span=span)
+        if op == "drop" or op == "amiss":
+            self.arity(t, 2)
+            return Op(op, needle=self.needle(t, 1), span=span)
+        if op in _CARRIER_OPS:
+            return self.carrier_op(t, span)
+        if op == "rack":
+            self.arity(t, 2)
+            r = _number(t[1])
+            if r is None:
+                raise _Bad(f"racking must be a number (e.g. 1, -2, 0.25), not `{t[1]}`", 1)
+            self.racking = r
+            return Op("rack", value=r, span=span)
+        if op == "stitch":
+            self.arity(t, 3)
+            lead, tight = _number(t[1]), _number(t[2])
+            if lead is None or tight is None:
+                raise _Bad(f"stitch values must be numbers, not `{t[1 if lead is None else 2]}`",
+                           1 if lead is None else 2)
+            return Op("stitch", value=(lead, tight), span=span)
+        if op == "x-stitch-number" or op == "x-speed-number":
+            self.arity(t, 2)
+            if _UINT.match(t[1]) is None:
+                raise _Bad(f"`{op}` takes a non-negative integer, not `{t[1]}`", 1)
+            kind = "stitch_number" if op == "x-stitch-number" else "speed"
+            return Op(kind, value=int(t[1]), span=span)
+        if op == "x-presser-mode":
+            self.arity(t, 2)
+            if t[1] not in ("on", "off", "auto"):
+                raise _Bad(f"presser mode must be on, off or auto, not `{t[1]}`", 1)
+            return Op("presser", value=t[1], span=span)
+        if op == "pause":
+            self.arity(t, 1)
+            return Op("pause", span=span)
+        if op.startswith("x-"):
+            raise _Warn(f"extension `{op}` is not supported; ignored")
+        raise _Bad(f"unknown operation `{op}`", 0, "E911")
+
+    def carrier_op(self, t: list[str], span: Span) -> Op:
+        op = t[0]
+        if len(t) < 2:
+            raise _Bad(f"`{op}` needs at least one carrier ({op} CS)", -1, "E914")
+        cs = self.carriers(t, 1)
+        active, hook = self.active, self.hook
+        for j, c in enumerate(cs, 1):
+            name = t[j]
+            if op in ("in", "inhook"):
+                if c in active:
+                    raise _Bad(f"carrier {name} is already in", j, "E915")
+            elif c not in active:
+                raise _Bad(f"`{op}` of carrier {name}, which is not in", j, "E915")
+            elif op == "releasehook":
+                if c not in hook:
+                    held = " ".join(self._name(h) for h in hook) or "nothing"
+                    raise _Bad(f"`releasehook` of carrier {name}, which the inserting hook "
+                               f"does not hold (it holds {held})", j, "E915")
+                if not active[c]:
+                    raise _Bad(f"`releasehook` of carrier {name} before it made a stitch",
+                               j, "E915")
+        if op in ("in", "inhook"):
+            for c in cs:
+                active[c] = False
+                self.not_in.discard(c)
+            if op == "inhook":
+                hook.extend(cs)
+        else:
+            for c in cs:
+                if c in hook:
+                    hook.remove(c)
+                if op != "releasehook":
+                    del active[c]
+        return Op(op, carriers=cs, span=span)
+
+    def _name(self, c: int) -> str:
+        for n, k in self.names.items():
+            if k == c:
+                return n
+        return str(c)
+
+
+class _Warn(Exception):
+    def __init__(self, message: str) -> None:
+        self.message = message
+
+
+class _TooMany(Exception):
+    pass
+
+
+def _fmt(v: float) -> str:
+    return str(int(v)) if float(v).is_integer() else repr(float(v))
+
+
+@contextmanager
+def gc_paused() -> Iterator[None]:
+    """Pause the cyclic garbage collector while building a program op by op: the readers make
+    a few acyclic objects per op, and the collector's repeated scans of the growing op list
+    would otherwise take about half the time."""
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if collecting:
+            gc.enable()
+
+
+def parse_knitout(text: str, path: str = "<knitout>", *, comments: bool = True,
+                  warnings: list[KnitoutError] | None = None) -> MachineProgram:
+    """Read Knitout `text` (from file `path`, for spans) into a `MachineProgram`.
+
+    Raises `KnitoutErrors` (every error, in line order, at most `MAX_ERRORS`) on invalid
+    input. Warnings are appended to `warnings` when given. The program's machine has the
+    header's name, gauge and carrier count; its position and width the header's."""
+    r = _Reader(text, path, comments)
+    lines = text.split("\n")
+    if lines and lines[-1] == "":
+        lines.pop()
+    crlf: list[bool] | None = None
+    if "\r" in text:
+        crlf = [line.endswith("\r") for line in lines]
+        if any(crlf):
+            lines = [line[:-1] if cr else line for line, cr in zip(lines, crlf, strict=True)]
+            r.warnings.append(KnitoutError("CRLF line ends (Knitout lines end with LF)",
+                                           crlf.index(True) + 1, 1, code="W910", warning=True))
+        else:
+            crlf = None
+    h = _Header()
+    with gc_paused():
+        try:
+            h, start = r.header(lines)
+            assert h.carriers is not None
+            r.names = {n: k for k, n in enumerate(h.carriers, 1)}
+            r.body(lines, start, crlf)
+        except _TooMany:
+            r.errors.append(KnitoutError(f"too many errors (stopped after {MAX_ERRORS})",
+                                         r.errors[-1].line, 1, code="E912"))
+    if warnings is not None:
+        warnings.extend(r.warnings)
+    if r.errors:
+        r.errors.sort(key=lambda e: (e.line, e.col))
+        raise KnitoutErrors(r.errors, r.warnings)
+    machine = Machine(name=h.machine, gauge=h.gauge,  # type: ignore[arg-type]
+                      carriers=len(h.carriers or ()) or Machine().carriers)
+    prog = MachineProgram(machine, position=h.position, width=h.width)
+    prog.extend(r.ops)
+    return prog
