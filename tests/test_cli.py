@@ -283,14 +283,13 @@ def test_plain_compile_without_emit(capsys, write):
     assert code == 0 and out == "" and err == ""
 
 
-@pytest.mark.parametrize("argv", [["-o", "x.dat"], ["--target", "dat"]])
-def test_not_implemented_stages_fail_cleanly(capsys, write, tmp_path, argv):
-    argv = [a if a != "x.dat" else str(tmp_path / "x.dat") for a in argv]
-    code, out, err = run(capsys, *argv, write(GOOD))
-    assert code == 1
-    assert "not implemented yet" in err
-    assert "Traceback" not in err
-    assert not (tmp_path / "x.dat").exists()
+def test_compile_to_dat_by_extension_or_target(capsys, write, tmp_path):
+    out_path = tmp_path / "x.dat"
+    code, out, err = run(capsys, "-o", str(out_path), write(GOOD))
+    assert code == 0, err
+    assert out_path.read_bytes()[8:10] == (1000).to_bytes(2, "little")  # a DAT header
+    code, out, err = run(capsys, "--target", "dat", write(GOOD))
+    assert code == 1 and "-o FILE.dat" in err and "Traceback" not in err  # binary: no stdout
 
 
 def test_compile_to_knitout_writes_the_file(capsys, write, tmp_path):

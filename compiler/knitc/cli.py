@@ -21,6 +21,9 @@ from knitc.driver import PLANNED_STAGES, STAGES, compile_file, emit_json
 EXAMPLES = """\
 examples:
   knitc examples/tube.knit -o tube.k            compile to Knitout
+  knitc examples/tube.knit -o tube.dat          compile to a Shima DAT (KnitPaint)
+  knitc k2dat tube.k -o tube.dat                convert any Knitout file to DAT
+  knitc dat2k tube.dat -o tube.k                decode a DAT back into Knitout
   knitc check examples/glove.knit               check a design, report every problem
   knitc -D finger_len=26 check examples/glove.knit
   knitc --emit skeleton examples/sock.knit      print the resolved skeleton IR as JSON
@@ -44,7 +47,8 @@ def _main_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="knitc", formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Compile a knitc garment description (.knit) for a knitting machine.\n"
-                    "Subcommands: `knitc check FILE`, `knitc fmt [--check] FILE...`.",
+                    "Subcommands: `knitc check FILE`, `knitc fmt [--check] FILE...`, "
+                    "`knitc k2dat IN.k -o OUT.dat`, `knitc dat2k IN.dat -o OUT.k`.",
         epilog=EXAMPLES)
     p.add_argument("file", metavar="FILE", help="the .knit design to compile")
     p.add_argument("-o", "--output", metavar="OUT",
@@ -79,6 +83,25 @@ def _fmt_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _k2dat_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="knitc k2dat",
+                                description="Convert a Knitout file to a Shima DAT file.")
+    p.add_argument("file", metavar="IN.k")
+    p.add_argument("-o", "--output", metavar="OUT.dat",
+                   help="output file (default: IN with the extension .dat)")
+    p.add_argument("-q", "--quiet", action="store_true", help="print errors only")
+    return p
+
+
+def _dat2k_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="knitc dat2k",
+                                description="Decode a Shima DAT file into Knitout.")
+    p.add_argument("file", metavar="IN.dat")
+    p.add_argument("-o", "--output", metavar="OUT.k", help="output file (default: stdout)")
+    p.add_argument("-q", "--quiet", action="store_true", help="print errors only")
+    return p
+
+
 def _report(diags: Diagnostics, quiet: bool) -> None:
     items = [d for d in diags.sorted() if d.is_error or not quiet]
     from knitc.diagnostics import render
@@ -101,6 +124,9 @@ def write_atomic(path: str, data: str | bytes) -> None:
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data.encode("utf-8") if isinstance(data, str) else data)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # what a plain open() would have made, not mkstemp's 0600
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
@@ -113,10 +139,8 @@ def _cmd_compile(args: argparse.Namespace) -> int:
     target = args.target
     if target is None and args.output and not args.emit:
         target = "dat" if args.output.lower().endswith(".dat") else "knitout"
-    if args.emit in PLANNED_STAGES or target == "dat":
-        what = f"--emit {args.emit}" if args.emit else "the DAT back end"
-        sys.stderr.write(f"knitc: error: {what} is not implemented yet (Knitout is: "
-                         "-o FILE.k)\n")
+    if args.emit in PLANNED_STAGES:
+        sys.stderr.write(f"knitc: error: --emit {args.emit} is not implemented yet\n")
         return 1
     until = args.emit if args.emit in STAGES else ("machine" if target else "trace")
     result = compile_file(args.file, defines=args.defines, until=until, werror=werror)
@@ -129,8 +153,93 @@ def _cmd_compile(args: argparse.Namespace) -> int:
         from knitc.backends.knitout import write_knitout
         assert result.program is not None
         text = write_knitout(result.program)
+    elif target == "dat":
+        assert result.program is not None
+        data = _dat_bytes(result.program, result.diagnostics, args.quiet)
+        if data is None:
+            return 1
+        if not args.output:
+            sys.stderr.write("knitc: error: a DAT file is binary: give an output file with "
+                             "-o FILE.dat\n")
+            return 1
+        write_atomic(args.output, data)
+        return 0
     else:
         return 0
+    if args.output:
+        write_atomic(args.output, text)
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
+def _dat_bytes(prog, diags: Diagnostics, quiet: bool) -> bytes | None:
+    """The DAT file of a machine program; None after reporting why the machine (or its DAT
+    format) cannot take it, at the line the refused operation came from."""
+    from knitc.backends.dat_format import DatError, encode
+    from knitc.backends.dat_write import DatWriteError, to_dat
+    try:
+        return encode(to_dat(prog))
+    except (DatWriteError, DatError) as exc:
+        index = getattr(exc, "op_index", None)
+        op = prog.ops[index] if index is not None and 0 <= index < len(prog.ops) else None
+        diags.error("E901", f"cannot write a DAT file: {getattr(exc, 'message', exc)}",
+                    op.span if op is not None else None,
+                    notes=[] if op is None else [_note(f"the operation: `{op}`")],
+                    hint="Shima machines rack at most a few needles, knit with at most two "
+                         "carriers at once and need every carrier taken out at the end")
+        _report(diags, quiet)
+        return None
+
+
+def _note(text: str):
+    from knitc.diagnostics import Note
+    return Note(text)
+
+
+def _read_input(path: str, binary: bool) -> str | bytes | None:
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+        return data if binary else data.decode("utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        sys.stderr.write(f"knitc: error[E001]: cannot read `{path}`: {exc}\n")
+        return None
+
+
+def _cmd_k2dat(args: argparse.Namespace) -> int:
+    from knitc.backends.knitout_read import KnitoutErrors, knitout_diagnostics, parse_knitout
+    text = _read_input(args.file, binary=False)
+    if text is None:
+        return 1
+    warnings: list = []
+    try:
+        prog = parse_knitout(text, args.file, warnings=warnings)
+    except KnitoutErrors as exc:
+        _report(knitout_diagnostics(args.file, text, exc.errors, exc.warnings), args.quiet)
+        return 1
+    diags = knitout_diagnostics(args.file, text, (), warnings)
+    data = _dat_bytes(prog, diags, args.quiet)
+    if data is None:
+        return 1
+    _report(diags, args.quiet)
+    out = args.output or os.path.splitext(args.file)[0] + ".dat"
+    write_atomic(out, data)
+    return 0
+
+
+def _cmd_dat2k(args: argparse.Namespace) -> int:
+    from knitc.backends.dat_format import DatError, decode
+    from knitc.backends.dat_read import DatReadError, dat_to_program
+    from knitc.backends.knitout import write_knitout
+    data = _read_input(args.file, binary=True)
+    if data is None:
+        return 1
+    try:
+        text = write_knitout(dat_to_program(decode(data)))
+    except (DatError, DatReadError) as exc:
+        sys.stderr.write(f"{args.file}: error[E902]: not a DAT file knitc can read: {exc}\n")
+        return 1
     if args.output:
         write_atomic(args.output, text)
     else:
@@ -184,13 +293,17 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         # Options may come before the subcommand (`knitc -D x=1 check f.knit`).
-        sub = next((i for i, a in enumerate(argv) if a in ("check", "fmt")
+        sub = next((i for i, a in enumerate(argv) if a in ("check", "fmt", "k2dat", "dat2k")
                     and (i == 0 or argv[i - 1] not in ("-D", "-o", "--output", "--emit", "-W",
                                                        "--target"))), None)
         if sub is not None:
             rest = argv[:sub] + argv[sub + 1:]
             if argv[sub] == "check":
                 return _cmd_check(_check_parser().parse_args(rest))
+            if argv[sub] == "k2dat":
+                return _cmd_k2dat(_k2dat_parser().parse_args(rest))
+            if argv[sub] == "dat2k":
+                return _cmd_dat2k(_dat2k_parser().parse_args(rest))
             return _cmd_fmt(_fmt_parser().parse_args(rest))
         return _cmd_compile(_main_parser().parse_args(argv))
     except SystemExit as exc:  # argparse: --help, --version, usage errors
