@@ -1,4 +1,5 @@
-"""`make bench`: time and peak memory of knitc on every example and on a scaling series.
+"""`make bench`: time and peak memory of knitc on every example, on a scaling series, and of
+the Knitout -> DAT converter on a 100k-operation program.
 
 Each case runs in a fresh Python process (so peak RSS is its own), compiling to Knitout
 (or, where the back end does not support a design yet, as far as it goes). Results go to
@@ -33,13 +34,51 @@ print(json.dumps({"seconds": round(dt, 3), "stage": stage, "stitches": stitches,
                   "peak_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)}))
 """
 
+K2DAT_CHILD = r"""
+import json, resource, sys, time
+from knitc.backends.dat_format import encode
+from knitc.backends.dat_write import to_dat
+from knitc.backends.knitout_read import parse_knitout
+text = open(sys.argv[1], encoding="utf-8").read()
+t0 = time.perf_counter()
+prog = parse_knitout(text, sys.argv[1])
+t1 = time.perf_counter()
+data = encode(to_dat(prog))
+dt = time.perf_counter() - t0
+print(json.dumps({"seconds": round(dt, 3), "parse_seconds": round(t1 - t0, 3),
+                  "ops": len(prog.ops), "dat_bytes": len(data),
+                  "peak_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)}))
+"""
+"""`knitc k2dat` in process: read the Knitout, build the passes, encode the DAT."""
+
+K2DAT_ROWS = 500
+K2DAT_NEEDLES = 200
+"""The k2dat case: stockinette on 200 needles, 500 rows (about 100k operations), the size
+the CMU converter was measured on (knitout-and-dat.md §3.1)."""
+
 SCALING = [("tube-10k", 100, 50), ("tube-100k", 400, 125), ("tube-1M", 1000, 500)]
 LACE = [("lace-10k", 100, 100), ("lace-100k", 400, 250)]
 """Flat sheets under eyelet lace and cables: every other course carries loops (`_carry`)."""
 
 
-def run_case(path: Path) -> dict:
-    out = subprocess.run([sys.executable, "-c", CHILD, str(path)], capture_output=True,
+def stockinette(rows: int, needles: int) -> str:
+    """A plain Knitout sheet: an alternating-tuck cast-on, `rows` rows, then drops."""
+    lines = [";!knitout-2", ";;Machine: SWG091N2", ";;Gauge: 15",
+             ";;Carriers: 1 2 3 4 5 6 7 8 9 10", ";;Position: Center", "inhook 3"]
+    lines += [f"tuck - f{n} 3" for n in range(needles, 0, -1) if n % 2 == 0]
+    lines += [f"tuck + f{n} 3" for n in range(1, needles + 1) if n % 2 == 1]
+    lines.append("releasehook 3")
+    for r in range(rows):
+        order = range(needles, 0, -1) if r % 2 == 0 else range(1, needles + 1)
+        sign = "-" if r % 2 == 0 else "+"
+        lines += [f"knit {sign} f{n} 3" for n in order]
+    lines.append("outhook 3")
+    lines += [f"drop f{n}" for n in range(1, needles + 1)]
+    return "\n".join(lines) + "\n"
+
+
+def run_case(path: Path, child: str = CHILD) -> dict:
+    out = subprocess.run([sys.executable, "-c", child, str(path)], capture_output=True,
                          text=True, check=False)
     if out.returncode != 0:
         return {"error": out.stderr.strip().splitlines()[-1] if out.stderr else "failed"}
@@ -74,9 +113,16 @@ def main() -> int:
         r["wall_seconds"] = round(time.perf_counter() - t0, 3)
         results.append(r)
         print(f"{name}: {r}", file=sys.stderr)
+    k = tmp / "k2dat-100k.k"
+    k.write_text(stockinette(K2DAT_ROWS, K2DAT_NEEDLES), encoding="utf-8")
+    t0 = time.perf_counter()
+    k2dat = run_case(k, K2DAT_CHILD)
+    k2dat["case"] = "k2dat-100k"
+    k2dat["wall_seconds"] = round(time.perf_counter() - t0, 3)
+    print(f"k2dat: {k2dat}", file=sys.stderr)
     doc = {"machine": {"python": platform.python_version(), "cpu": platform.processor() or
                        platform.machine()},
-           "date": time.strftime("%Y-%m-%d"), "results": results}
+           "date": time.strftime("%Y-%m-%d"), "results": results, "k2dat": k2dat}
     (REPO / "bench" / "results.json").write_text(json.dumps(doc, indent=1) + "\n")
     print("| case | stitches | stage reached | knitc seconds | peak MB |")
     print("|---|---:|---|---:|---:|")
@@ -86,6 +132,14 @@ def main() -> int:
         else:
             print(f"| {r['case']} | {r['stitches']} | {r['stage']} | {r['seconds']} | "
                   f"{r['peak_mb']} |")
+    print()
+    print("| knitout -> DAT | operations | DAT bytes | seconds (read + passes + encode) | peak MB |")
+    print("|---|---:|---:|---:|---:|")
+    if "error" in k2dat:
+        print(f"| k2dat-100k | | | error: {k2dat['error']} | |")
+    else:
+        print(f"| k2dat-100k | {k2dat['ops']} | {k2dat['dat_bytes']} | {k2dat['seconds']} | "
+              f"{k2dat['peak_mb']} |")
     return 0
 
 
