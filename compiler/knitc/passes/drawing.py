@@ -39,8 +39,6 @@ from knitc.passes import raster
 from knitc.passes.query import evaluate_frame
 from knitc.syntax import ast
 
-CROSSES = ("XR+", "XR-", "XL+", "XL-")
-
 
 def apply_grid(run, stmt: ast.GridStmt, node, env, within) -> None:
     """Write the grid of `stmt` on the stitches its query selects (`run` is the pattern
@@ -102,21 +100,15 @@ def _instructions(run, stmt: ast.GridStmt, grid: ast.Grid) -> np.ndarray | None:
         _once(run, "E716", msg, at.span, hint="every row of a grid has as many cells as the "
               "first; use `.` for a stitch the drawing leaves as it is")
         ok = False
-    crossed = False
-    for row in grid.rows:
-        for cell in row:
-            if cell.text == ".":
-                continue
-            if cell.text not in INSTRUCTIONS:
-                _once(run, "E711", f"`{cell.text}` is not a pattern instruction", cell.span,
-                      hint="use K P T M FR1 FR2 FL1 FL2 BR1 BR2 BL1 BL2 XR+ XR- XL+ XL- S, "
-                           "or `.` to leave a stitch as it is")
-                ok = False
-            elif stmt.mode == "stretch" and cell.text in CROSSES and not crossed:
-                crossed = True
-                _once(run, "E712", "a stretched grid cannot hold crosses", cell.span,
-                      hint="scaling would tear cable pairs apart; use `tile` or `draw`")
-                ok = False
+    for kind, cell in raster.cell_problems(grid, stmt.mode):
+        ok = False
+        if kind == "unknown":
+            _once(run, "E711", f"`{cell.text}` is not a pattern instruction", cell.span,
+                  hint="use K P T M FR1 FR2 FL1 FL2 BR1 BR2 BL1 BL2 XR+ XR- XL+ XL- S, "
+                       "or `.` to leave a stitch as it is")
+        else:
+            _once(run, "E712", "a stretched grid cannot hold crosses", cell.span,
+                  hint="scaling would tear cable pairs apart; use `tile` or `draw`")
     if not ok:
         return None
     return raster.chart_values(grid, INSTRUCTIONS.index)

@@ -59,6 +59,31 @@ class Placement:
 
 # ---- charts --------------------------------------------------------------------------------
 
+MNEMONICS = ("K", "P", "T", "M", "FR1", "FR2", "FL1", "FL2", "BR1", "BR2", "BL1", "BL2",
+             "XR+", "XR-", "XL+", "XL-", "S")
+"""The 17 instruction mnemonics a drawn grid may hold (and `.`: leave the stitch)."""
+CROSS_MNEMONICS = ("XR+", "XR-", "XL+", "XL-")
+
+
+def cell_problems(grid: ast.Grid, mode: str) -> list[tuple[str, ast.GridCell]]:
+    """("unknown", cell) for cells that are not instructions, and ("cross", cell) for the
+    first cross of a `stretch`ed grid (scaling would tear cable pairs apart). Shared by the
+    resolver (grids written in place) and the drawing pass (grids bound by `let`), which
+    report them under their own codes."""
+    out: list[tuple[str, ast.GridCell]] = []
+    crossed = False
+    for row in grid.rows:
+        for cell in row:
+            if cell.text == ".":
+                continue
+            if cell.text not in MNEMONICS:
+                out.append(("unknown", cell))
+            elif mode == "stretch" and cell.text in CROSS_MNEMONICS and not crossed:
+                crossed = True
+                out.append(("cross", cell))
+    return out
+
+
 def chart_shape_problems(grid: ast.Grid) -> list[tuple[ast.Node, str]]:
     """Rows of a different length than the first one, or an empty grid (with a message)."""
     if not grid.rows or not any(grid.rows):

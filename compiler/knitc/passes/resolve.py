@@ -21,6 +21,7 @@ from pathlib import Path
 from knitc.diagnostics import Diagnostics, Note
 from knitc.evaluate import BUILTINS, EvalError, Evaluator, Profile, Value, Word, show, type_name
 from knitc.ir import skeleton as sk
+from knitc.passes.raster import cell_problems
 from knitc.resources import stdlib_module
 from knitc.source import SourceFile, Span
 from knitc.syntax import ast
@@ -52,7 +53,6 @@ SHAPER_FUNCTIONS = {"range": (1, 3), "len": (1, 1)}
 
 INSTRUCTIONS = ("K", "P", "T", "M", "FR1", "FR2", "FL1", "FL2", "BR1", "BR2", "BL1", "BL2",
                 "XR+", "XR-", "XL+", "XL-", "S")
-CROSSES = ("XR+", "XR-", "XL+", "XL-")
 
 
 def _suggest(name: str, options) -> str | None:
@@ -814,21 +814,16 @@ class _Resolver:
                              notes=[Note("defined here", d.name.span)])
 
     def _check_grid(self, grid: ast.Grid, mode: str) -> None:
-        crossed = False
-        for row in grid.rows:
-            for cell in row:
-                if cell.text == ".":
-                    continue
-                if cell.text not in INSTRUCTIONS:
-                    self.diags.error("E220", f"`{cell.text}` is not a pattern instruction",
-                                     cell.span, hint=_suggest(cell.text, INSTRUCTIONS) or
-                                     "use K P T M FR1 FR2 FL1 FL2 BR1 BR2 BL1 BL2 XR+ XR- XL+ "
-                                     "XL- S, or `.` to leave a stitch as it is")
-                elif mode == "stretch" and cell.text in CROSSES and not crossed:
-                    crossed = True
-                    self.diags.error("E315", "a stretched grid cannot hold crosses", cell.span,
-                                     hint="scaling would tear cable pairs apart; use `tile` or "
-                                          "`draw`")
+        for kind, cell in cell_problems(grid, mode):
+            if kind == "unknown":
+                self.diags.error("E220", f"`{cell.text}` is not a pattern instruction",
+                                 cell.span, hint=_suggest(cell.text, INSTRUCTIONS) or
+                                 "use K P T M FR1 FR2 FL1 FL2 BR1 BR2 BL1 BL2 XR+ XR- XL+ "
+                                 "XL- S, or `.` to leave a stitch as it is")
+            else:
+                self.diags.error("E315", "a stretched grid cannot hold crosses", cell.span,
+                                 hint="scaling would tear cable pairs apart; use `tile` or "
+                                      "`draw`")
 
     # -- name checks in bodies
     def _check_expr(self, e: ast.Node, ctx: str, scope: set[str]) -> None:
