@@ -185,9 +185,7 @@ def _dat_bytes(prog, diags: Diagnostics, quiet: bool) -> bytes | None:
         op = prog.ops[index] if index is not None and 0 <= index < len(prog.ops) else None
         diags.error("E901", f"cannot write a DAT file: {getattr(exc, 'message', exc)}",
                     op.span if op is not None else None,
-                    notes=[] if op is None else [_note(f"the operation: `{op}`")],
-                    hint="Shima machines rack at most a few needles, knit with at most two "
-                         "carriers at once and need every carrier taken out at the end")
+                    notes=[] if op is None else [_note(f"the operation: `{op}`")])
         _report(diags, quiet)
         return None
 
