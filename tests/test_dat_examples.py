@@ -3,6 +3,7 @@ command line writes, converts and reads DAT files (`-o x.dat`, `k2dat`, `dat2k`)
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -73,6 +74,14 @@ def test_k2dat_refuses_what_a_shima_cannot_knit(tmp_path, capsys):
     k.write_text(left_in, encoding="utf-8")
     assert main(["k2dat", str(k), "-o", str(tmp_path / "left.dat")]) == 1
     assert "error[" in capsys.readouterr().err
+
+
+def test_dat2k_prints_the_pass_table(capsys):
+    assert main(["dat2k", "--passes", str(FIXTURES / "rib_2x2.dat")]) == 0
+    table = json.loads(capsys.readouterr().out)
+    want = rows((FIXTURES / "rib_2x2.dat").read_bytes())
+    assert (table["width"], table["height"]) == (126, 38) and len(table["rows"]) == len(want)
+    assert table["rows"] == [r.to_json() for r in want]
 
 
 def test_dat2k_rejects_a_file_that_is_not_a_dat(tmp_path, capsys):

@@ -24,6 +24,7 @@ examples:
   knitc examples/tube.knit -o tube.dat          compile to a Shima DAT (KnitPaint)
   knitc k2dat tube.k -o tube.dat                convert any Knitout file to DAT
   knitc dat2k tube.dat -o tube.k                decode a DAT back into Knitout
+  knitc dat2k --passes tube.dat                 print its pass table as JSON
   knitc check examples/glove.knit               check a design, report every problem
   knitc -D finger_len=26 check examples/glove.knit
   knitc --emit skeleton examples/sock.knit      print the resolved skeleton IR as JSON
@@ -98,6 +99,9 @@ def _dat2k_parser() -> argparse.ArgumentParser:
                                 description="Decode a Shima DAT file into Knitout.")
     p.add_argument("file", metavar="IN.dat")
     p.add_argument("-o", "--output", metavar="OUT.k", help="output file (default: stdout)")
+    p.add_argument("--passes", action="store_true",
+                   help="print the pass table (every raster row: direction, option bars, slot "
+                        "colour codes) as JSON instead of Knitout")
     p.add_argument("-q", "--quiet", action="store_true", help="print errors only")
     return p
 
@@ -227,14 +231,21 @@ def _cmd_k2dat(args: argparse.Namespace) -> int:
 
 
 def _cmd_dat2k(args: argparse.Namespace) -> int:
-    from knitc.backends.dat_format import DatError, decode
+    import json
+
+    from knitc.backends.dat_format import DatError, decode, rows
     from knitc.backends.dat_read import DatReadError, dat_to_program
     from knitc.backends.knitout import write_knitout
     data = _read_input(args.file, binary=True)
     if data is None:
         return 1
     try:
-        text = write_knitout(dat_to_program(decode(data)))
+        image = decode(data)
+        if args.passes:
+            text = json.dumps({"width": image.width, "height": image.height,
+                               "rows": [r.to_json() for r in rows(image)]}) + "\n"
+        else:
+            text = write_knitout(dat_to_program(image))
     except (DatError, DatReadError) as exc:
         sys.stderr.write(f"{args.file}: error[E902]: not a DAT file knitc can read: {exc}\n")
         return 1
