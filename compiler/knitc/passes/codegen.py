@@ -404,10 +404,9 @@ def _carry(gen: _Gen, chunk: np.ndarray) -> None:
         t = neighbour(right, left, x, MOVES[int(g.instr[x])])
         involved |= {x, t}
         rounds[3].append((x, home[x], home[t]))
-    def facing(p: Pos) -> Pos:
-        return ("b" if p[0] == "f" else "f", p[1])
-
-    moves = [m for part in rounds for m in part if bed.where.get(m[0]) in (m[1], facing(m[1]))]
+    # a loop is carried from its needle, or (a B move's) from the needle facing it
+    moves = [m for part in rounds for m in part
+             if bed.where.get(m[0]) in (m[1], ("b" if m[1][0] == "f" else "f", m[1][1]))]
     if not moves:
         return
     _park(gen, moves, gen.pos(int(ids[-1]))[1])
