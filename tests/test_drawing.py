@@ -289,8 +289,8 @@ def _diags(src, path):
 
 
 @pytest.mark.parametrize(("body", "code", "at"), [
-    ('  let g = """\n K Q\n """\n  tile g', "E711", "Q"),
-    ('  let g = """\n K XR+\n """\n  stretch g', "E712", "XR+"),
+    ('  let g = """\n K Q\n """\n  tile g', "E220", "Q"),
+    ('  let g = """\n K XR+\n """\n  stretch g', "E315", "XR+"),
     ('  let g = """\n K P\n P\n """\n  draw g', "E716", "P\n"),
     ("  let g = wales(0)\n  tile g", "E710", "g\n"),
     ('  draw img("m.png")', "E710", "img"),

@@ -7,8 +7,7 @@ modes are the original's singular, scalable and tileable drawings:
 
 - `draw`: once, centred in the selection (each course centred on its own selected wales);
 - `stretch`: nearest-neighbour scaled onto the selection's bounding box. Crosses cannot
-  be stretched: scaling would separate the two halves of a cable pair (E315 for a grid
-  written in place, E712 for one bound with `let`);
+  be stretched: scaling would separate the two halves of a cable pair (E315);
 - `tile`: repeated from the selection's lower-left corner.
 
 The placement is computed from the selection every time the pattern pass runs, so a motif
@@ -24,10 +23,11 @@ drawing on one face (`draw` then centres it on that face).
 
 Inside an `apply`d pattern definition the layer's selection is the caller's selection
 (intersected with the statement's own `where`), so the definition's drawing is placed on
-it. Diagnostics: E704 unknown grid name, E710 not a grid, E711 an unknown instruction in
-a grid bound with `let` (one written in place is checked by the resolver, E220), E712
-crosses in a stretched `let` grid, E716 a grid that is not rectangular, W710 a singular
-drawing larger than its selection (the cells outside are skipped).
+it. Diagnostics: E704 unknown grid name, E710 not a grid, E220 an unknown instruction and
+E315 crosses in a stretched grid (the codes the resolver gives a grid written in place;
+this pass checks grids bound with `let`, with the same scan, `raster.cell_problems`), E716
+a grid that is not rectangular, W710 a singular drawing larger than its selection (the
+cells outside are skipped).
 """
 
 from __future__ import annotations
@@ -103,11 +103,11 @@ def _instructions(run, stmt: ast.GridStmt, grid: ast.Grid) -> np.ndarray | None:
     for kind, cell in raster.cell_problems(grid, stmt.mode):
         ok = False
         if kind == "unknown":
-            _once(run, "E711", f"`{cell.text}` is not a pattern instruction", cell.span,
+            _once(run, "E220", f"`{cell.text}` is not a pattern instruction", cell.span,
                   hint="use K P T M FR1 FR2 FL1 FL2 BR1 BR2 BL1 BL2 XR+ XR- XL+ XL- S, "
                        "or `.` to leave a stitch as it is")
         else:
-            _once(run, "E712", "a stretched grid cannot hold crosses", cell.span,
+            _once(run, "E315", "a stretched grid cannot hold crosses", cell.span,
                   hint="scaling would tear cable pairs apart; use `tile` or `draw`")
     if not ok:
         return None
