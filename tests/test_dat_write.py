@@ -1,5 +1,5 @@
 """The DAT writer (knitc.backends.dat_write): Knitout-level ops grouped into passes exactly as
-the CMU converter knitout-to-dat.js groups them (shared/research/knitout-and-dat.md §2.3-§2.6).
+the CMU Knitout-to-DAT converter groups them (shared/research/knitout-and-dat.md §2.3-§2.6).
 
 The reference is the converter's output on the fixtures (tests/fixtures/dat): every one must
 come out byte for byte. The converter itself is not in the repository, so the finer rules are

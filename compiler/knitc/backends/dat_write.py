@@ -2,7 +2,7 @@
 
 A Shima DAT has one raster row per carriage pass, so the writer's job is to group the
 program's ops into passes and give each pass its option values. knitc follows the CMU
-converter (knitout-to-dat.js) exactly, so that a Knitout file converted by knitc gives the same
+Knitout-to-DAT converter exactly, so that a Knitout file converted by knitc gives the same
 DAT, row for row and byte for byte (shared/research/knitout-and-dat.md §2.3-§2.6):
 
 * **Slots.** A front needle's slot is its number, a back needle's its number plus
