@@ -83,7 +83,7 @@ from knitc.passes import casting as cast
 from knitc.passes.bed import Pos, Unsupported
 from knitc.passes.query import coords
 from knitc.passes.resolve import ACTION_WORDS, BUILTIN_ACTIONS
-from knitc.passes.steps import Action
+from knitc.passes.steps import Action, continues_in_place
 from knitc.resources import stdlib_module
 from knitc.source import UNKNOWN_SPAN, SourceFile, Span
 from knitc.syntax import ast
@@ -263,18 +263,15 @@ def lower(gen, ctx, s: int, d: int, pos):
 
 
 def keeps_loop(gen, s: int) -> bool:
-    """Whether stitch `s`'s action leaves its new loop where its main step put it, for the
-    next stitch of its wale (`transfer_back: false`): that stitch is on the same needle of a
-    flat course, a plain continuation (no increase or decrease), with the same action."""
-    g = gen.g
-    a = int(g.action[s])
+    """Whether stitch `s`'s action leaves its new loop where its main step put it
+    (`transfer_back: false`) for the next stitch of its wale, which continues in place
+    (`steps.continues_in_place`) with the same action."""
+    a = int(gen.g.action[s])
     progs = gen.opts.actions
     if not 0 <= a < len(progs) or getattr(progs[a], "transfer_back", True):
         return False
-    kid = int(g.wale_next[s, 0])
-    return (kid >= 0 and int(g.wale_next[s, 1]) < 0 and int(g.wale_prev[kid, 1]) < 0
-            and int(g.action[kid]) == a and gen.pos(kid) == gen.pos(s)
-            and not g.course_circular[g.course[s]] and not g.course_circular[g.course[kid]])
+    kid = continues_in_place(gen, s)
+    return kid >= 0 and int(gen.g.action[kid]) == a
 
 
 def prepare_pass(gen, acts: list[Action]) -> list[list[Action]]:

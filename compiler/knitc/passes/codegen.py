@@ -46,7 +46,7 @@ from knitc.passes import actions
 from knitc.passes import casting as cast
 from knitc.passes.bed import BEDS, Bed, Pos, Unsupported
 from knitc.passes.instructions import CROSSES, MOVES, cables, neighbour, right_left, via_notes
-from knitc.passes.steps import Action, run_actions
+from knitc.passes.steps import Action, continues_in_place, run_actions
 from knitc.passes.transfers import move
 from knitc.source import Span
 
@@ -618,17 +618,10 @@ def _stays(gen: _Gen, s: int) -> bool:
 
 
 def _purl_continues(gen: _Gen, s: int) -> bool:
-    """Whether purl `s`'s new loop may stay on the facing needle (xionluhnis/knitsketching
-    issue #5): on a flat course whose next stitch in the wale is a purl on the same needle,
-    taking the loop home and back again would only wear the yarn. `_shaping` leaves such a
-    loop where it is, and the next purl knits it there."""
-    g = gen.g
-    kid = int(g.wale_next[s, 0])
-    return (kid >= 0 and int(g.wale_next[s, 1]) < 0 and int(g.wale_prev[kid, 1]) < 0
-            and not g.course_circular[g.course[s]] and not g.course_circular[g.course[kid]]
-            and int(g.instr[kid]) == PURL and gen.pos(kid) == gen.pos(s)
-            and int(g.action[kid]) < 0
-            and not gen.carrying[g.course[s]] and not gen.carrying[g.course[kid]])
+    """Whether purl `s`'s new loop stays on the facing needle for the next purl of its
+    wale (`steps.continues_in_place`)."""
+    kid = continues_in_place(gen, s)
+    return kid >= 0 and int(gen.g.instr[kid]) == PURL and int(gen.g.action[kid]) < 0
 
 
 def _miss(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos) -> None:

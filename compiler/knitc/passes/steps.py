@@ -37,3 +37,21 @@ def run_actions(actions: list[Action]) -> None:
             order = [fs[k] for k in range(depth) for fs in lists if k < len(fs)]
         for f in order:
             f()
+
+
+def continues_in_place(gen, s: int) -> int:
+    """The next stitch of `s`'s wale when a loop of `s` may wait for it where it was made:
+    a plain continuation (one loop out of `s`, one into the next) on the same needle of a
+    flat course, with no loops carried after either course (`codegen._carry`); else -1.
+    A purl, or an action with `transfer_back: false`, whose next stitch is the same then
+    leaves its loop on the facing needle instead of taking it home and back (knitsketching
+    issue #5), and the alignment and shaping passes leave it there. `gen` is code
+    generation's state (`g`, `pos`, `carrying`)."""
+    g = gen.g
+    kid = int(g.wale_next[s, 0])
+    if (kid < 0 or int(g.wale_next[s, 1]) >= 0 or int(g.wale_prev[kid, 1]) >= 0
+            or g.course_circular[g.course[s]] or g.course_circular[g.course[kid]]
+            or gen.carrying[g.course[s]] or gen.carrying[g.course[kid]]
+            or gen.pos(kid) != gen.pos(s)):
+        return -1
+    return kid
