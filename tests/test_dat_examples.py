@@ -1,4 +1,5 @@
-"""Every shipped design compiles to a DAT file that decodes back to the same passes, and the
+"""Every shipped design compiles to a DAT file that decodes back to the same passes (and to
+Knitout the independent machine runs clean), and the
 command line writes, converts and reads DAT files (`-o x.dat`, `k2dat`, `dat2k`)."""
 
 from __future__ import annotations
@@ -11,8 +12,10 @@ import pytest
 from knitc.backends.dat_format import decode, encode, rows
 from knitc.backends.dat_read import dat_to_program
 from knitc.backends.dat_write import to_dat
+from knitc.backends.knitout import write_knitout
 from knitc.cli import main
 from knitc.driver import compile_source
+from oracle import assert_clean, run_oracle_on_text
 
 ROOT = Path(__file__).resolve().parent.parent
 DESIGNS = sorted((ROOT / "examples").glob("*.knit")) + sorted(
@@ -31,6 +34,18 @@ def test_every_design_round_trips_through_dat(path):
     # the decoded passes are a program that writes the same DAT again
     again = encode(to_dat(dat_to_program(back)))
     assert rows(again) == rows(data)
+
+
+def test_knitout_decoded_from_dats_runs_clean_on_the_independent_machine():
+    """What `dat2k` writes is a program a machine can run: every fixture's DAT and every
+    shipped design's DAT, read back, pass the independent machine."""
+    datas = [f.read_bytes() for f in sorted(FIXTURES.glob("*.dat"))]
+    for path in DESIGNS:
+        r = compile_source(path.read_text(encoding="utf-8"), str(path), until="machine")
+        datas.append(encode(to_dat(r.program)))
+    texts = [write_knitout(dat_to_program(decode(d))) for d in datas]
+    for report in run_oracle_on_text(texts):
+        assert_clean(report)
 
 
 def test_compiling_to_dat_writes_the_file_atomically(tmp_path, capsys):

@@ -11,9 +11,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from knitc.backends.knitout import write_knitout
+from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source
 from knitc.ir import schedule as sc
 from knitc.ir.stitch_graph import INSTRUCTIONS
+from knitc.passes.instructions import check_instructions
+from knitc.passes.pattern import apply_patterns
+from knitc.passes.shape import build_stitch_graph
 from oracle import assert_clean, run_oracle_on_text
 from test_props_shape import SETTINGS
 
@@ -254,6 +258,30 @@ CODES = ["K", "P", "T", "M", "FR1", "FR2", "FL1", "FL2", "BR1", "BL1", "XR+", "X
 
 
 @SETTINGS
+@given(st.lists(st.tuples(st.sampled_from(CODES), st.integers(0, 7), st.integers(0, 9)),
+                min_size=1, max_size=16),
+       st.booleans(), st.booleans())
+def test_the_instruction_check_only_resets_to_knit_and_is_idempotent(writes, tube, shaped):
+    """`check_instructions` never writes an instruction the pattern did not, never touches
+    anything but `instr`, and a second run changes nothing (what it keeps is knittable)."""
+    width = "[0: 5, 1: 8]" if shaped else "5"
+    shape = (f"tube s {{ length: 8  width: {width}  gauge: half }}" if tube else
+             f"sheet s {{ length: 8  width: {width} }}")
+    body = "\n".join(f"  set {c} where select({course}, {w})" for c, course, w in writes)
+    r = compile_source(f"{shape}\npattern s {{\n{body}\n}}\n", "t.knit", until="skeleton")
+    raw = apply_patterns(r.skeleton, build_stitch_graph(r.skeleton, Diagnostics()),
+                         Diagnostics())
+    checked = check_instructions(raw, Diagnostics())
+    changed = checked.instr != raw.instr
+    assert (checked.instr[changed] == 0).all()
+    for name in ("wale_prev", "wale_next", "cprev", "cnext", "course", "action", "origin"):
+        assert np.array_equal(getattr(checked, name), getattr(raw, name)), name
+    again = Diagnostics()
+    assert np.array_equal(check_instructions(checked, again).instr, checked.instr)
+    assert not list(again)
+
+
+@SETTINGS
 @given(st.lists(st.tuples(st.sampled_from(CODES), st.integers(1, 6), st.integers(0, 9)),
                 min_size=1, max_size=12),
        st.booleans())
@@ -289,6 +317,12 @@ ORACLE_DESIGNS = [
     "pattern t { set XR+ where select(2, 2) and side(front)\n"
     "            set XL- where select(2, 3) and side(front) }\n",
     "import std.stitches (rib)\nsheet s { length: 10  width: 8 }\npattern s { apply rib(2, 2) }\n",
+    # refused instructions are knitted plain, and what remains must still knit
+    sheet("  set FL1 where select(3, 0)\n  set FR1 where select(3, 9)"),
+    sheet("  set FR1 where select(3, 3)\n  set FL1 where select(3, 5)"),
+    "import std.stitches (tuck_stitch)\nsheet s { length: 10  width: [0: 12, 1: 6] }\n"
+    "pattern s {\n  apply tuck_stitch()\n}\n",
+    "import std.stitches (rib)\ntube t { length: 3  width: 4 }\npattern t { apply rib(1, 1) }\n",
 ]
 """The lowerings above, run through the independent machine in one batch (self-contained,
 so the test does not depend on which other tests ran)."""
