@@ -128,25 +128,13 @@ def relative(g: StitchGraph, c: Coords, sel: np.ndarray) -> Coords:
     its first wale in each course (and the ends to its last), so that a pattern applied to
     part of a piece starts its repeat at that part's corner, not at the piece's. Stitches
     outside the selection keep their coordinates (queries inside it never see them)."""
-    if not sel.any():
-        return c
-    big = np.iinfo(np.int64).max
-    node, course_id = g.node.astype(np.int64), g.course.astype(np.int64)
-
-    def span(key: np.ndarray, size: int, val: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        lo, hi = np.full(size, big, np.int64), np.full(size, -1, np.int64)
-        np.minimum.at(lo, key[sel], val[sel])
-        np.maximum.at(hi, key[sel], val[sel])
-        return lo[key], hi[key]
-
-    clo, chi = span(node, len(g.node_names), c.course)
-    wlo, whi = span(course_id, g.n_courses, c.wale)
-    inside_c, inside_w = clo != big, wlo != big
+    clo, chi = raster.extent(g.node.astype(np.int64), c.course, sel)
+    wlo, whi = raster.extent(g.course.astype(np.int64), c.wale, sel)
     return dataclasses.replace(
-        c, course=np.where(inside_c, c.course - clo, c.course),
-        course_end=np.where(inside_c, chi - clo, c.course_end),
-        wale=np.where(inside_w, c.wale - wlo, c.wale),
-        wale_end=np.where(inside_w, whi - wlo, c.wale_end))
+        c, course=np.where(sel, c.course - clo, c.course),
+        course_end=np.where(sel, chi - clo, c.course_end),
+        wale=np.where(sel, c.wale - wlo, c.wale),
+        wale_end=np.where(sel, whi - wlo, c.wale_end))
 
 
 def coords(g: StitchGraph) -> Coords:
