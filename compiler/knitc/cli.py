@@ -15,7 +15,7 @@ import tempfile
 import traceback
 
 from knitc import __version__
-from knitc.diagnostics import Diagnostics
+from knitc.diagnostics import Diagnostics, Note
 from knitc.driver import PLANNED_STAGES, STAGES, compile_file, emit_json
 
 EXAMPLES = """\
@@ -189,14 +189,9 @@ def _dat_bytes(prog, diags: Diagnostics, quiet: bool) -> bytes | None:
         op = prog.ops[index] if index is not None and 0 <= index < len(prog.ops) else None
         diags.error("E901", f"cannot write a DAT file: {getattr(exc, 'message', exc)}",
                     op.span if op is not None else None,
-                    notes=[] if op is None else [_note(f"the operation: `{op}`")])
+                    notes=[] if op is None else [Note(f"the operation: `{op}`")])
         _report(diags, quiet)
         return None
-
-
-def _note(text: str):
-    from knitc.diagnostics import Note
-    return Note(text)
 
 
 def _read_input(path: str, binary: bool) -> str | bytes | None:
