@@ -162,6 +162,13 @@ LOOP_KINDS = frozenset({"knit", "tuck", "split"})
 SETTING_KINDS = frozenset({"stitch", "stitch_number", "speed", "presser"})
 PRESSER_MODES = ("on", "off", "auto")
 
+CODE_PASSES = ("", "yarn_start", "cast_on", "action", "shaping", "alignment", "cast_off",
+               "yarn_end")
+"""The code pass (thesis ch. 6.8.1) an op belongs to; '' when it was not made by code
+generation (read from a file, built by hand). Tools read it: the fabric check finds the loop
+that stands for a stitch (the one its action pass formed), the bench counts transfer passes
+by kind, and pictures colour the passes."""
+
 KNITOUT_OPCODE = {"stitch_number": "x-stitch-number", "speed": "x-speed-number",
                   "presser": "x-presser-mode"}
 """Knitout opcodes that differ from the kind's name."""
@@ -188,6 +195,8 @@ class Op:
     value: float | int | str | None = None
     stitch: int = -1
     span: Span | None = None
+    phase: str = ""
+    """The code pass that made the op (`CODE_PASSES`)."""
 
     @property
     def forms_loop(self) -> bool:
@@ -241,6 +250,8 @@ class Op:
             out["stitch"] = self.stitch
         if self.span is not None:
             out["span"] = self.span.to_json()
+        if self.phase:
+            out["pass"] = self.phase
         return out
 
 
@@ -283,6 +294,7 @@ class MachineProgram:
                                       compare=False)
     _context: list[tuple[int, Span | None]] = field(default_factory=list, init=False,
                                                     repr=False, compare=False)
+    _phase: str = field(default="", init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         ops, self.ops = self.ops, []
@@ -311,6 +323,17 @@ class MachineProgram:
         finally:
             self._context.pop()
 
+    @contextmanager
+    def code_pass(self, name: str) -> Iterator[None]:
+        """Tag the ops built inside the block with code pass `name` (`CODE_PASSES`)."""
+        if name not in CODE_PASSES:
+            raise ValueError(f"unknown code pass {name!r}")
+        outer, self._phase = self._phase, name
+        try:
+            yield
+        finally:
+            self._phase = outer
+
     def _prov(self, stitch: int, span: Span | None) -> tuple[int, Span | None]:
         ctx_stitch, ctx_span = self._context[-1] if self._context else (-1, None)
         return (ctx_stitch if stitch is _UNSET else stitch,
@@ -333,7 +356,7 @@ class MachineProgram:
 
     def _add(self, kind: str, stitch: int, span: Span | None, **kw: Any) -> Op:
         s, sp = self._prov(stitch, span)
-        return self.emit(Op(kind, stitch=s, span=sp, **kw))
+        return self.emit(Op(kind, stitch=s, span=sp, phase=self._phase, **kw))
 
     # -- carriers -----------------------------------------------------------------------------
 
@@ -578,6 +601,8 @@ def op_problems(op: Op, machine: Machine) -> list[str]:
         problems.append("value not allowed")
     if not isinstance(op.stitch, int) or op.stitch < -1:
         problems.append(f"stitch {op.stitch!r} is not an id or -1")
+    if op.phase not in CODE_PASSES:
+        problems.append(f"code pass {op.phase!r} is unknown")
     return problems
 
 

@@ -221,9 +221,11 @@ def _run(gen: _Gen) -> None:
         v0 = int(sub[0])
         ids = t.stitch[sub]
         gen.where_span = gen.bed.span(int(ids[0]))
+        prog = gen.bed.prog
         if v0 in slice_starts:
             _, aligned, represented = next(placements)
-            _place(gen, aligned, represented, int(ids[0]))
+            with prog.code_pass("alignment"):
+                _place(gen, aligned, represented, int(ids[0]))
         if v0 == course_bounds[ci]:  # a course begins
             chunk = np.arange(course_bounds[ci], course_bounds[ci + 1])
             gen.course_needles = {gen.pos(int(x)) for x in t.stitch[chunk]}
@@ -242,18 +244,23 @@ def _run(gen: _Gen) -> None:
             if all(int(g.wale_prev[s, 0]) < 0 for s in cids):
                 catch = _cast_on(gen, ctx, chunk, new)
             elif new:
-                gen.bed.prog.in_((carrier,), stitch=int(cids[0]), span=ctx.span)
+                with prog.code_pass("yarn_start"):
+                    prog.in_((carrier,), stitch=int(cids[0]), span=ctx.span)
             _presser(gen, int(g.course[cids[0]]))
-        primary.update(_shaping(gen, sub))
-        _action_pass(gen, ctx, sub, primary)
+        with prog.code_pass("shaping"):
+            primary.update(_shaping(gen, sub))
+        with prog.code_pass("action"):
+            _action_pass(gen, ctx, sub, primary)
         # the yarn has caught on the first part's stitches: the catching tucks go before the
         # next slice's shaping can need their needles
-        for p in catch:
-            if gen.bed.loops.get(p, 0):
-                gen.bed.drop(p, -1)
+        with prog.code_pass("yarn_start"):
+            for p in catch:
+                if gen.bed.loops.get(p, 0):
+                    gen.bed.drop(p, -1)
         catch = []
         if int(sub[-1]) + 1 == course_bounds[ci]:  # the course is done
-            _carry(gen, chunk)
+            with prog.code_pass("action"):  # the moves and crosses finish the instructions
+                _carry(gen, chunk)
             _finish_course(gen, ctx, chunk, carrier, free)
         else:
             # Ending stitches wait for the course's cast-off (one chain around it), unless
@@ -261,9 +268,11 @@ def _run(gen: _Gen) -> None:
             # then this slice gets its own cast-off pass (ch. 6.8), with its own tail.
             ends = [int(x) for x in ids if g.wale_next[x, 0] < 0]
             if ends and _reused_later(gen, ends, t.stitch[int(sub[-1]) + 1:course_bounds[ci]]):
-                left, last_dir = _cast_off(gen, ctx, sub, ends)
+                with prog.code_pass("cast_off"):
+                    left, last_dir = _cast_off(gen, ctx, sub, ends)
                 if left >= 0:
-                    _tail_and_drop(ctx, left, last_dir)
+                    with prog.code_pass("yarn_end"):
+                        _tail_and_drop(ctx, left, last_dir)
     leftover = [pos for pos, n in gen.bed.loops.items() if n > 0]
     if leftover:
         raise Unsupported(f"{len(leftover)} loops would be left on the needles")
@@ -281,14 +290,17 @@ def _finish_course(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, carrier: int,
     g, t = gen.g, gen.t
     ids = t.stitch[chunk]
     ends = [int(s) for s in ids if g.wale_next[s, 0] < 0 and int(s) in gen.bed.where]
-    left, last_dir = _cast_off(gen, ctx, chunk, ends) if ends else (-1, 0)
-    if t.flags[chunk[-1]] & tr.END:
-        tail_pos = cast.tail(ctx, left, last_dir) if left >= 0 else None
-        cast.yarn_end(ctx, tail_pos, left if left >= 0 else int(ids[-1]))
-        del gen.carrier_of[int(t.yarn[chunk[-1]])]
-        free.append(carrier)  # reuse carriers last: a carrier brought back keeps its yarn
-    elif left >= 0:
-        _tail_and_drop(ctx, left, last_dir)
+    prog = gen.bed.prog
+    with prog.code_pass("cast_off"):
+        left, last_dir = _cast_off(gen, ctx, chunk, ends) if ends else (-1, 0)
+    with prog.code_pass("yarn_end"):
+        if t.flags[chunk[-1]] & tr.END:
+            tail_pos = cast.tail(ctx, left, last_dir) if left >= 0 else None
+            cast.yarn_end(ctx, tail_pos, left if left >= 0 else int(ids[-1]))
+            del gen.carrier_of[int(t.yarn[chunk[-1]])]
+            free.append(carrier)  # reuse carriers last: a carrier brought back keeps its yarn
+        elif left >= 0:
+            _tail_and_drop(ctx, left, last_dir)
 
 
 # ---- shaping and alignment ----------------------------------------------------------------------
@@ -492,8 +504,11 @@ def _cast_on(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, new: bool) -> list[Pos
                  if int(g.instr[e.stitch]) == PURL or (
                      0 <= int(g.action[e.stitch]) < len(progs)
                      and getattr(progs[int(g.action[e.stitch])], "transfers", False))}
-        catch = cast.yarn_start(ctx, plan[0] if plan else entries[0], busy, entries[0].stitch)
-    cast.emit_plan(ctx, plan)
+        with gen.bed.prog.code_pass("yarn_start"):
+            catch = cast.yarn_start(ctx, plan[0] if plan else entries[0], busy,
+                                    entries[0].stitch)
+    with gen.bed.prog.code_pass("cast_on"):
+        cast.emit_plan(ctx, plan)
     return catch
 
 
