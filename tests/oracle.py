@@ -145,6 +145,7 @@ class OracleReport:
     carriage_passes: int | None
     no_ops: int | None  # instructions that changed nothing (xfer or drop of an empty needle)
     knit_graph: dict[str, int] | None  # {"loops": n, "stitches": m} of the oracle's knit graph
+    fabric: dict[str, Any] | None  # the whole knit graph, when asked for (`tests/fabric.py`)
     stripped: dict[str, int]  # line kinds removed before the run -> count (see the runner)
     lines: int
     elapsed_s: float
@@ -178,6 +179,7 @@ class OracleReport:
             carriage_passes=d.get("carriage_passes"),
             no_ops=d.get("no_ops"),
             knit_graph=d.get("knit_graph"),
+            fabric=d.get("fabric"),
             stripped=dict(d.get("stripped") or {}),
             lines=d.get("lines", 0),
             elapsed_s=d.get("elapsed_s", 0.0),
@@ -262,11 +264,12 @@ def assert_clean(
 
 
 def run_oracle(
-    paths: Sequence[str | os.PathLike[str]], *, timeout: float = 120.0
+    paths: Sequence[str | os.PathLike[str]], *, timeout: float = 120.0, fabric: bool = False
 ) -> list[OracleReport]:
     """Run every file through the oracle in one subprocess; one report per path, in order.
 
     timeout: seconds allowed per file (a file over it gets a Timeout error, the others go on).
+    fabric: also bring back each file's knit graph (`OracleReport.fabric`, `tests/fabric.py`).
     Fails or skips the calling test when the oracle is missing (see `require_oracle`); raises
     RuntimeError if the runner itself breaks (it never should: it reports, then exits 0).
     """
@@ -276,6 +279,8 @@ def run_oracle(
     if not paths:
         return []
     cmd = [str(oracle_python()), str(RUNNER), "--timeout", str(timeout)]
+    if fabric:
+        cmd.append("--fabric")
     cmd += [str(p.resolve()) for p in paths]
     proc = subprocess.run(
         cmd,
@@ -298,7 +303,9 @@ def run_oracle(
     return [OracleReport.from_json(p, r) for p, r in zip(paths, reports)]
 
 
-def run_oracle_on_text(texts: Sequence[str], *, timeout: float = 120.0) -> list[OracleReport]:
+def run_oracle_on_text(
+    texts: Sequence[str], *, timeout: float = 120.0, fabric: bool = False
+) -> list[OracleReport]:
     """`run_oracle` on Knitout given as strings (written to a temporary directory)."""
     __tracebackhide__ = True
     require_oracle()
@@ -308,7 +315,7 @@ def run_oracle_on_text(texts: Sequence[str], *, timeout: float = 120.0) -> list[
             p = Path(tmp) / f"program{i}.k"
             p.write_text(text, encoding="utf-8", newline="\n")
             paths.append(p)
-        return run_oracle(paths, timeout=timeout)
+        return run_oracle(paths, timeout=timeout, fabric=fabric)
 
 
 if __name__ == "__main__":  # quick manual use: python tests/oracle.py FILE.k ...

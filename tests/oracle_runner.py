@@ -22,6 +22,17 @@ the number of carriage passes and of no-op instructions, the lines that were str
 the run, and the time taken. When a file stops on an error the state fields describe the
 machine at the point where it stopped.
 
+With ``--fabric`` each report also holds the knitted fabric as the machine's knit graph saw
+it (``fabric``), for comparing with the design (``tests/fabric.py``)::
+
+    {"loops": [[id, line, needle, yarn, [parent, ...], [pull, ...]], ...],
+     "yarns": [[carrier, [loop, ...]], ...]}
+
+``line`` is the 1-based line of the instruction that formed the loop, ``needle`` where it was
+formed (``f12``), ``yarn`` an index into ``yarns``; parents are loop ids in stacking order,
+each with the pull direction of its stitch edge (1 = back to front, a knit seen from the
+front bed; 0 = front to back).
+
 The exit code is 0 whatever happened to the files: the caller judges. Only a bad command line
 exits non-zero. Anything the interpreter prints goes to stderr so that stdout stays JSON.
 """
@@ -333,6 +344,8 @@ class Oracle:
 
             current_line: int | None = None
             last: Knitout_Executer | None = None
+            born: dict[int, int] | None = None
+            """loop id -> the 0-based line that formed it (only when the fabric is asked for)."""
 
             def test_and_organize_instructions(self) -> None:
                 type(self).last = self
@@ -344,7 +357,17 @@ class Oracle:
 
             def _execute_and_add_instruction(self, instruction) -> None:
                 self._note(instruction)
+                born = type(self).born
+                if born is None:
+                    super()._execute_and_add_instruction(instruction)
+                    return
+                kg = self.knitting_machine.knit_graph
+                before = -1 if kg.last_loop is None else kg.last_loop.loop_id
                 super()._execute_and_add_instruction(instruction)
+                after = -1 if kg.last_loop is None else kg.last_loop.loop_id
+                line = type(self).current_line
+                for loop_id in range(before + 1, after + 1):
+                    born[loop_id] = -1 if line is None else line
 
             @classmethod
             def _note(cls, instruction) -> None:
@@ -390,7 +413,7 @@ class Oracle:
             raise _Stop(errors[:MAX_PARSE_ERRORS])
         return codes
 
-    def run(self, path: str, timeout: float | None) -> dict:
+    def run(self, path: str, timeout: float | None, fabric: bool = False) -> dict:
         t0 = time.perf_counter()
         report: dict = {
             "path": path,
@@ -412,6 +435,7 @@ class Oracle:
         machine = None
         self.Executer.last = None
         self.Executer.current_line = None
+        self.Executer.born = {} if fabric else None
         lines: list[str] = []
         misaligned: list[dict] = []
 
@@ -501,6 +525,8 @@ class Oracle:
                 signal.setitimer(signal.ITIMER_REAL, 0)
         with contextlib.suppress(Exception):
             self._end_state(report, machine, self.Executer.last)
+        if fabric and machine is not None:
+            report["fabric"] = self._fabric(machine, self.Executer.born or {})
         report["elapsed_s"] = round(time.perf_counter() - t0, 4)
         return report
 
@@ -520,6 +546,35 @@ class Oracle:
         with contextlib.suppress(Exception):
             kg = machine.knit_graph
             report["knit_graph"] = {"loops": kg.loop_count, "stitches": kg.edge_count}
+
+
+    @staticmethod
+    def _fabric(machine, born: dict[int, int]) -> dict:
+        """The knit graph as plain data (see the module docstring): every loop with the
+        line that formed it, its needle, its yarn and its parents, and every yarn in order."""
+        from knit_graphs.Pull_Direction import Pull_Direction
+
+        kg = machine.knit_graph
+        yarns = sorted(kg.yarns, key=lambda y: min((lp.loop_id for lp in y), default=-1))
+        yarn_of = {}
+        out_yarns = []
+        for k, y in enumerate(yarns):
+            ids = [lp.loop_id for lp in y]
+            for i in ids:
+                yarn_of[i] = k
+            carrier = getattr(getattr(y, "carrier", None), "carrier_id", None)
+            out_yarns.append([None if carrier is None else int(carrier), ids])
+        loops = []
+        for lp in kg.sorted_loops:
+            line = born.get(lp.loop_id, -1)
+            needle = lp.needle_history[0] if getattr(lp, "needle_history", None) else None
+            parents = [p.loop_id for p in lp.parent_loops]
+            pulls = [int(kg.get_pull_direction(p, lp) is Pull_Direction.BtF)
+                     for p in lp.parent_loops]
+            loops.append([lp.loop_id, line + 1 if line >= 0 else None,
+                          None if needle is None else str(needle), yarn_of.get(lp.loop_id),
+                          parents, pulls])
+        return {"loops": loops, "yarns": out_yarns}
 
 
 class _Stop(Exception):
@@ -550,6 +605,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("files", nargs="+", metavar="FILE.k")
     ap.add_argument("--timeout", type=float, default=None, help="seconds allowed per file")
+    ap.add_argument("--fabric", action="store_true",
+                    help="also report the knit graph of each file (loops, parents, yarns)")
     args = ap.parse_args(argv)
 
     real_stdout = sys.stdout
@@ -566,7 +623,7 @@ def main(argv: list[str] | None = None) -> int:
         else:
             result["runner"]["startup_s"] = round(time.perf_counter() - t0, 4)
             for f in args.files:
-                result["reports"].append(oracle.run(f, args.timeout))
+                result["reports"].append(oracle.run(f, args.timeout, args.fabric))
     json.dump(result, real_stdout)
     real_stdout.write("\n")
     real_stdout.flush()

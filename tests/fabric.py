@@ -1,0 +1,463 @@
+"""Is the knitted fabric the designed garment? The design's stitch graph against the knit
+graph an independent machine made of knitc's program.
+
+`make test` runs knitc's Knitout on knitout-interpreter + virtual-knitting-machine (the
+oracle, `tests/oracle.py`), which builds a knit graph of the fabric as it runs: every loop,
+the loops it was pulled through (its parents) with the pull direction, and the yarns. That
+program accepting the Knitout only says the machine could knit it; this module says whether
+what it knitted is what the design says. Every op of knitc's program knows the stitch it
+came from and its code pass (`Op.stitch`, `Op.phase`), so each designed stitch finds its
+loop: the one its action pass formed (`Expected.loop`).
+
+The design is read as the fabric it should make, course by course (`expect`): every loop
+on a needle *stands for* a stitch, and a stitch's new loop must be pulled through exactly
+the loops that stand for its designed wale predecessors. The exceptions, each named:
+
+- **kickback increase**: of the two children of an increase, one gets its parent's loops;
+  the other is a tuck on an empty needle, held by the course's yarn on both sides (never
+  next to another one: a row of them is a hole, not an increase);
+- **split increase**: the parent's loops go to the other child's needle; that child either
+  knits through them or misses and lets them stand for it;
+- **miss** (M) forms no loop: the loops below stand for it; **tuck** (T) adds a loop that
+  the next knit pulls through together with the loops below;
+- **carried loops**: after a course with lace moves or cables the loops go where the
+  instruction sends them (`instructions.neighbour`, `instructions.cables`), so a needle a
+  loop left makes a yarn-over (a tuck on an empty needle) and a needle it joined knits both;
+- the first course of a yarn knits through its cast-on loops.
+
+Checks, each a `Mismatch` kind that names the stitch, its node and its course:
+
+- ``loop``: a designed stitch with no loop where it must have one;
+- ``parents``: its loop was pulled through other loops than designed (a hole, a wale that
+  jumps to another stitch, a piece cast on anew where it should continue);
+- ``pull``: knitted where a purl was designed, or the other way round;
+- ``hole``: two kickback increases next to each other (nothing holds the course there);
+- ``unattached``: a loop of the fabric left with nothing pulled through it and not bound
+  off (it will unravel);
+- ``ring``: a tubular course whose loops are not one closed ring of its designed size,
+  on one yarn in course order;
+- ``connection``: a connection of the design with fewer stitch edges between its two nodes
+  than the design has wales there (a one-sided seam);
+- ``pieces``: the fabric falls into another number of pieces than the design has garments.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from knitc.backends.knitout import knitout_lines
+from knitc.driver import Result
+from knitc.ir import schedule as sc
+from knitc.ir.machine import MachineProgram
+from knitc.ir.stitch_graph import INSTRUCTIONS, StitchGraph
+from knitc.passes.instructions import CROSSES, MOVES, cables, neighbour, right_left
+
+P, T, M = (INSTRUCTIONS.index(x) for x in "PTM")
+REVERSED = {P} | {k for k, name in enumerate(INSTRUCTIONS) if name[0] == "B"}
+"""Instructions knitted from the other bed: their stitch is pulled the other way."""
+CARRIED = set(MOVES) | set(CROSSES)
+BACK_TO_FRONT = 1
+
+
+# ---- the fabric, as the oracle reports it -----------------------------------------------------
+
+@dataclass(frozen=True)
+class Fabric:
+    """The oracle's knit graph (`oracle_runner.py --fabric`), by loop id."""
+
+    line: list[int | None]
+    needle: list[str | None]
+    yarn: list[int | None]
+    parents: list[tuple[int, ...]]
+    pulls: list[tuple[int, ...]]
+    yarns: list[tuple[int | None, tuple[int, ...]]]
+    children: list[list[int]] = field(default_factory=list)
+    yarn_pos: dict[int, int] = field(default_factory=dict)
+
+    @classmethod
+    def from_json(cls, d: dict) -> Fabric:
+        rows = sorted(d["loops"], key=lambda r: r[0])
+        if [r[0] for r in rows] != list(range(len(rows))):
+            raise ValueError("the oracle's loop ids are not 0..n-1")
+        fab = cls(line=[r[1] for r in rows], needle=[r[2] for r in rows],
+                  yarn=[r[3] for r in rows], parents=[tuple(r[4]) for r in rows],
+                  pulls=[tuple(r[5]) for r in rows],
+                  yarns=[(c, tuple(ids)) for c, ids in d["yarns"]])
+        fab.children.extend([] for _ in rows)
+        for child, ps in enumerate(fab.parents):
+            for p in ps:
+                fab.children[p].append(child)
+        for _, ids in fab.yarns:
+            fab.yarn_pos.update((loop, i) for i, loop in enumerate(ids))
+        return fab
+
+    def __len__(self) -> int:
+        return len(self.line)
+
+
+# ---- what the design says ---------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Mismatch:
+    kind: str
+    stitch: int
+    text: str
+
+    def __str__(self) -> str:
+        return f"[{self.kind}] {self.text}"
+
+
+@dataclass
+class Expected:
+    """The fabric the design asks for, in the oracle's loop ids (see the module docstring)."""
+
+    loop: dict[int, int]
+    """Stitch -> the loop its action pass formed."""
+    stands: list[frozenset[int]]
+    """Per stitch, the loops standing for it once its course (and its carries) is done."""
+    kickbacks: set[int]
+    """Stitches made as kickback increases (a tuck with no parent)."""
+    realized: list[tuple[int, int]]
+    """(parent stitch, child stitch) wales the fabric has."""
+    mismatches: list[Mismatch]
+    home: np.ndarray
+    """Per stitch, the bed its layout knits it on (0 front, 1 back)."""
+
+
+def loops_by_op(prog: MachineProgram, fab: Fabric) -> dict[int, list[int]]:
+    """Op index -> the loops it formed (knitc's Knitout lines mapped back to its ops)."""
+    op_of_line = [op for _, op in knitout_lines(prog)]
+    out: dict[int, list[int]] = {}
+    for loop, line in enumerate(fab.line):
+        if line is not None and 1 <= line <= len(op_of_line) and op_of_line[line - 1] >= 0:
+            out.setdefault(op_of_line[line - 1], []).append(loop)
+    return out
+
+
+def describe(g: StitchGraph, s: int) -> str:
+    c = int(g.course[s])
+    pos = s - int(g.course_start[c])
+    side = "back" if int(g.side[s]) else "front"
+    return (f"stitch {s} (node `{g.node_names[int(g.node[s])]}`, course {c}, position {pos}, "
+            f"{side}, {INSTRUCTIONS[int(g.instr[s])]})")
+
+
+def expect(result: Result, fab: Fabric) -> Expected:
+    """Walk the design course by course and hold each stitch's loop against it."""
+    g, prog = result.graph, result.program
+    assert g is not None and prog is not None
+    by_op = loops_by_op(prog, fab)
+    loop: dict[int, int] = {}
+    cast_on: set[int] = set()
+    for k, op in enumerate(prog.ops):
+        if op.forms_loop and k in by_op:
+            if op.phase == "action" and op.stitch >= 0:
+                loop[op.stitch] = by_op[k][-1]
+            elif op.phase == "cast_on":
+                cast_on.update(by_op[k])
+    n = g.n_stitches
+    assert result.schedule is not None
+    home = sc.knit_positions(result.schedule, n)[0]
+    stands: list[frozenset[int]] = [frozenset()] * n
+    out = Expected(loop, stands, set(), [], [], home)
+    bad = out.mismatches
+    sides = None
+    for c in range(g.n_courses):
+        ids = g.course_ids(c)
+        for s in ids.tolist():
+            parents = [int(p) for p in g.wale_prev[s] if p >= 0]
+            below = frozenset().union(*(stands[p] for p in parents))
+            lp = loop.get(s)
+            instr = int(g.instr[s])
+            if lp is None:  # nothing formed: what is on the needle stands for the stitch
+                if instr == M or _split_sibling(g, s, loop, fab):
+                    stands[s] = below
+                    out.realized += [(p, s) for p in parents]
+                elif below:
+                    stands[s] = below
+                    bad.append(Mismatch("loop", s, f"{describe(g, s)} was never knitted: no "
+                                        "loop of the fabric is its own"))
+                else:
+                    bad.append(Mismatch("loop", s, f"{describe(g, s)} has no loop at all"))
+                continue
+            got = frozenset(fab.parents[lp])
+            stands[s] = frozenset({lp}) | (below if instr == T else frozenset())
+            if instr == T and not got:
+                out.realized += [(p, s) for p in parents]
+                continue
+            if not parents:
+                if got - cast_on:
+                    bad.append(Mismatch("parents", s, f"{describe(g, s)} starts the fabric but "
+                                        f"was pulled through loops {_names(g, fab, got)}"))
+                continue
+            if got == below:
+                out.realized += [(p, s) for p in parents]
+                _check_pull(g, fab, s, lp, bool(home[s] == 0), bad)
+                continue
+            if not got and _kickback(g, s, parents, loop, stands, fab):
+                out.kickbacks.add(s)
+                continue
+            hit = [p for p in parents if stands[p] & got]
+            out.realized += [(p, s) for p in hit]
+            bad.append(Mismatch("parents", s, f"{describe(g, s)} was pulled through "
+                                f"{_names(g, fab, got)} but its designed wale predecessors "
+                                f"{parents} stand as {_names(g, fab, below)}"))
+        if np.isin(g.instr[ids], list(CARRIED)).any():
+            if sides is None:
+                sides = right_left(g)
+            _carry(g, ids, stands, *sides)
+    _check_holes(g, out)
+    return out
+
+
+def _names(g: StitchGraph, fab: Fabric, loops: Iterable[int]) -> str:
+    loops = sorted(loops)
+    if not loops:
+        return "no loop"
+    shown = ", ".join(f"{x}@{fab.needle[x]}" for x in loops[:6])
+    return "loops " + shown + (" ..." if len(loops) > 6 else "")
+
+
+def _split_sibling(g: StitchGraph, s: int, loop: dict[int, int], fab: Fabric) -> bool:
+    """Whether `s` is the missed child of a split increase (its parent's loop stands for it)."""
+    parents = [int(p) for p in g.wale_prev[s] if p >= 0]
+    if len(parents) != 1:
+        return False
+    kids = [int(k) for k in g.wale_next[parents[0]] if k >= 0 and int(k) != s]
+    return len(kids) == 1 and kids[0] in loop and bool(fab.parents[loop[kids[0]]])
+
+
+def _kickback(g: StitchGraph, s: int, parents: list[int], loop: dict[int, int],
+              stands: list[frozenset[int]], fab: Fabric) -> bool:
+    """Whether parentless `s` is the kickback child of an increase whose other child took
+    the parent's loops."""
+    if len(parents) != 1 or not stands[parents[0]]:
+        return False
+    kids = [int(k) for k in g.wale_next[parents[0]] if k >= 0 and int(k) != s]
+    return len(kids) == 1 and kids[0] in loop and \
+        stands[parents[0]] <= frozenset(fab.parents[loop[kids[0]]])
+
+
+def _check_pull(g: StitchGraph, fab: Fabric, s: int, lp: int, front: bool,
+                bad: list[Mismatch]) -> None:
+    """Knit or purl as designed. The face of the fabric is the side away from the other bed,
+    so a knit on the bed its layout puts it on (`front`) pulls back to front on the front
+    bed and front to back on the back bed; a reversed stitch the other way."""
+    if int(g.action[s]) >= 0:  # a user action decides for itself how it pulls
+        return
+    purl = int(g.instr[s]) in REVERSED
+    want = BACK_TO_FRONT if front != purl else 1 - BACK_TO_FRONT
+    if any(p != want for p in fab.pulls[lp]):
+        what = "a purl" if purl else "a knit"
+        bad.append(Mismatch("pull", s, f"{describe(g, s)} should be {what} on its face, but "
+                            f"its loop {lp}@{fab.needle[lp]} is pulled the other way"))
+
+
+def _carry(g: StitchGraph, ids: np.ndarray, stands: list[frozenset[int]], right: np.ndarray,
+           left: np.ndarray) -> None:
+    """After a course with moves or crosses, each stitch's needle holds the loops sent to it."""
+    dest = {int(s): int(s) for s in ids}
+    for cab in cables(g, ids, right, left):
+        for x, j in zip(cab.group, cab.targets(), strict=True):
+            dest[x] = cab.group[j]
+    for s in ids.tolist():
+        k = int(g.instr[s])
+        if k in MOVES:
+            dest[s] = neighbour(right, left, s, MOVES[k])
+    landed: dict[int, frozenset[int]] = {s: frozenset() for s in dest}
+    for s, t in dest.items():
+        landed[t] = landed.get(t, frozenset()) | stands[s]
+    for s in dest:
+        stands[s] = landed[s]
+
+
+def _check_holes(g: StitchGraph, out: Expected) -> None:
+    """Two kickback increases side by side: the course has nothing holding it there."""
+    for s in sorted(out.kickbacks):
+        for nb in (int(g.cnext[s]),):
+            if nb >= 0 and nb in out.kickbacks:
+                out.mismatches.append(Mismatch(
+                    "hole", s, f"{describe(g, s)} and its course neighbour {nb} are both "
+                    "kickback increases: nothing below holds the course there (a hole)"))
+
+
+# ---- whole-fabric checks ----------------------------------------------------------------------
+
+def check_fabric(result: Result, fab: Fabric, *, dropped_ok: Iterable[int] = ()) -> list[Mismatch]:
+    """Every mismatch between the design of `result` and the knitted `fab`."""
+    g = result.graph
+    assert g is not None
+    ex = expect(result, fab)
+    bad = list(ex.mismatches)
+    bad += _unattached(g, fab, ex, set(dropped_ok))
+    bad += _rings(g, fab, ex)
+    bad += _connections(result, ex)
+    bad += _pieces(g, result.skeleton, ex)
+    return bad
+
+
+def _unattached(g: StitchGraph, fab: Fabric, ex: Expected, dropped_ok: set[int]
+                ) -> list[Mismatch]:
+    """Loops that stand for a stitch but that nothing was pulled through: every ending
+    stitch is bound off (its loop knitted into the bind-off chain), every other loop is
+    knitted through by the course above."""
+    out = []
+    for s in range(g.n_stitches):
+        if s in dropped_ok:
+            continue
+        loose = sorted(x for x in ex.stands[s] if not fab.children[x])
+        if loose:
+            out.append(Mismatch("unattached", s, f"{describe(g, s)}: {_names(g, fab, loose)} "
+                                "have nothing pulled through them and are not bound off"))
+    return out
+
+
+def _rings(g: StitchGraph, fab: Fabric, ex: Expected) -> list[Mismatch]:
+    """Each tubular course is one closed ring: its loops on one yarn, in course order,
+    crossing between the beds exactly twice around, as many as designed."""
+    out = []
+    for c in np.nonzero(g.course_circular)[0].tolist():
+        ids = g.course_ids(c).tolist()
+        own = [ex.loop[s] for s in ids if s in ex.loop]
+        if len(own) < len(ids):
+            continue  # missed stitches (and their reports) make no ring of their own
+        first = ids[0]
+        yarns = {fab.yarn[x] for x in own}
+        pos = [fab.yarn_pos.get(x, -1) for x in own]
+        beds = [int(ex.home[s]) for s in ids]
+        turns = sum(beds[i] != beds[i - 1] for i in range(len(beds)))
+        problem = None
+        if len(yarns) != 1:
+            problem = f"is knitted with {len(yarns)} yarns"
+        elif any(b <= a for a, b in zip(pos, pos[1:])):
+            problem = "is not knitted in its course order"
+        elif len(set(beds)) == 2 and turns != 2:
+            problem = f"crosses between the beds {turns} times instead of twice"
+        if problem:
+            out.append(Mismatch("ring", first, f"the tubular course {c} of node "
+                                f"`{g.node_names[int(g.course_node[c])]}` ({len(ids)} stitches) "
+                                f"{problem}"))
+    return out
+
+
+def _connections(result: Result, ex: Expected) -> list[Mismatch]:
+    """Each connection of the design joins its two nodes stitch by stitch: every stitch of
+    the smaller interface course has a stitch edge into the other node (a connection missing
+    on one bed is a one-sided seam; one with no edges leaves a separate piece)."""
+    g, skel = result.graph, result.skeleton
+    assert g is not None and skel is not None
+    courses_of: dict[str, list[int]] = {}
+    for c, names in g.course_names.items():
+        for name in names:
+            courses_of.setdefault(name, []).append(c)
+    touching: dict[tuple[int, int], set[int]] = {}
+    for p, s in ex.realized:
+        a, b = int(g.node[p]), int(g.node[s])
+        if a != b:
+            touching.setdefault((a, b), set()).add(p)
+            touching.setdefault((b, a), set()).add(s)
+    out = []
+    for conn in skel.connections:
+        na, nb = (g.node_names.index(i.node) for i in (conn.a, conn.b))
+        if na == nb:
+            continue
+        sides = []
+        for itf, me, other in ((conn.a, na, nb), (conn.b, nb, na)):
+            ids = [int(x) for c in courses_of.get(str(itf), []) for x in g.course_ids(c)
+                   if int(g.node[x]) == me]
+            if ids:
+                sides.append((itf, ids, touching.get((me, other), set())))
+        if not sides:
+            continue
+        itf, ids, touched = min(sides, key=lambda t: len(t[1]))
+        loose = [x for x in ids if x not in touched]
+        if loose:
+            out.append(Mismatch("connection", loose[0], f"the connection {conn.a} -> {conn.b} "
+                                f"leaves {len(loose)} of the {len(ids)} stitches of `{itf}` with "
+                                f"no stitch edge to the other side, first {describe(g, loose[0])}"))
+    return out
+
+
+def _pieces(g: StitchGraph, skel, ex: Expected) -> list[Mismatch]:
+    """As many pieces of fabric as the design has garments (nodes joined by connections)."""
+    nodes = list(g.node_names)
+    designed = _components(len(nodes), [(nodes.index(c.a.node), nodes.index(c.b.node))
+                                        for c in skel.connections])
+    made = _components(g.n_stitches, list(ex.realized) + _course_edges(g))
+    if made != designed:
+        return [Mismatch("pieces", -1, f"the fabric is {made} piece(s); the design has "
+                         f"{designed} garment(s)")]
+    return []
+
+
+def _course_edges(g: StitchGraph) -> list[tuple[int, int]]:
+    has = np.nonzero(g.cnext >= 0)[0]
+    return list(zip(has.tolist(), g.cnext[has].tolist()))
+
+
+def _components(n: int, edges: list[tuple[int, int]]) -> int:
+    parent = list(range(n))
+
+    def find(x: int) -> int:
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    for a, b in edges:
+        ra, rb = find(a), find(b)
+        if ra != rb:
+            parent[ra] = rb
+    return sum(1 for x in range(n) if find(x) == x)
+
+
+def describe_all(mismatches: list[Mismatch], limit: int = 25) -> str:
+    lines = [str(m) for m in mismatches[:limit]]
+    if len(mismatches) > limit:
+        lines.append(f"... and {len(mismatches) - limit} more")
+    return "\n".join(lines)
+
+
+# ---- for tests --------------------------------------------------------------------------------
+
+def assert_knits_as_designed(results: Sequence[Result], *, names: Sequence[str] | None = None,
+                             allow: Sequence[Iterable[str]] | Iterable[str] = (),
+                             dropped_ok: Sequence[Iterable[int]] | None = None) -> None:
+    """Run every compiled design on the independent machine (one oracle process for all) and
+    fail, listing every problem of every design, unless each runs clean (`assert_clean`) and
+    knits the fabric its design says (`check_fabric`).
+
+    allow: hazard warnings tolerated, for all designs or (a sequence of sequences) per design.
+    dropped_ok: per design, stitches whose loops the design lets go (`cast_off: none`).
+    """
+    __tracebackhide__ = True
+    from knitc.backends.knitout import write_knitout
+    from oracle import run_oracle_on_text
+
+    names = list(names) if names is not None else [f"design {i}" for i in range(len(results))]
+    allows = list(allow) if allow and not isinstance(next(iter(allow)), str) else \
+        [allow] * len(results)
+    texts = []
+    for name, r in zip(names, results, strict=True):
+        assert r.program is not None, f"{name} did not compile:\n{r.diagnostics.render()}"
+        texts.append(write_knitout(r.program))
+    reports = run_oracle_on_text(texts, fabric=True)
+    failures = []
+    for i, (name, r, report) in enumerate(zip(names, results, reports, strict=True)):
+        problems = report.problems(allow=allows[i])
+        if problems:
+            failures.append(f"{name}: " + report.describe(problems))
+            continue
+        if report.fabric is None:
+            failures.append(f"{name}: the oracle returned no knit graph")
+            continue
+        bad = check_fabric(r, Fabric.from_json(report.fabric),
+                           dropped_ok=dropped_ok[i] if dropped_ok else ())
+        if bad:
+            failures.append(f"{name}: the fabric is not the design ({len(bad)} mismatch(es)):\n"
+                            + describe_all(bad))
+    if failures:
+        raise AssertionError("\n\n".join(failures))
