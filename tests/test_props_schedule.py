@@ -26,6 +26,7 @@ from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
 from knitc.diagnostics import Diagnostics
+from knitc.driver import compile_source
 from knitc.ir import schedule as ir
 from knitc.ir.slices import ACTIVE, EXPECTED, SUSPENDED
 from knitc.passes.schedule import schedule
@@ -121,21 +122,47 @@ def test_generated_garments_get_a_valid_schedule(prog, tracer, limit):
     check_schedule(g, sl, sched)
 
 
+def _narrow_machine(g) -> str:
+    sl = slice_trace(g, trace_courses(g))
+    diags = Diagnostics()
+    sched = schedule(g, sl, needles=12, diags=diags)
+    if sched is not None:
+        check_schedule(g, sl, sched)
+        return "fits"
+    assert [d.code for d in diags if d.is_error] == ["E601"]
+    # the width it reports is what a wider machine gets, and more than this one has
+    need = int(diags.items[0].message.split()[3])
+    assert need > 12
+    wide = schedule(g, sl, needles=need, diags=Diagnostics())
+    assert wide is not None and wide.width == need
+    check_schedule(g, sl, wide)
+    return "E601"
+
+
 @settings(SETTINGS, max_examples=15)
 @given(programs())
 def test_a_narrow_machine_is_an_error_not_an_overlap(prog):
     _, g = compile_graph(prog)
-    sl = slice_trace(g, trace_courses(g))
-    diags = Diagnostics()
-    sched = schedule(g, sl, needles=12, diags=diags)
-    if sched is None:
-        assert [d.code for d in diags if d.is_error] == ["E601"]
-        # the width it reports is what a wider machine gets, and more than this one has
-        need = int(diags.items[0].message.split()[3])
-        assert need > 12
-        wide = schedule(g, sl, needles=need, diags=Diagnostics())
-        assert wide is not None and wide.width == need
-        event("E601")
-    else:
-        event("fits")
-        check_schedule(g, sl, sched)
+    event(_narrow_machine(g))
+
+
+def test_the_width_e601_asks_for_is_enough():
+    # Found by hypothesis (seed 129874845360850946832588695163947462292): greedy placement
+    # met the bed's right end at 32 and 33 needles although an unbounded bed packs the
+    # garment into 32.
+    src = """
+sheet n1 { length: 1  type: flat  width: [0: 2, 1: 2] }
+sheet n2 { length: 1  type: flat  width: [0: 4, 1: 4] }
+sheet n3 { length: 4  type: cylinder  width: [0: 2, 1: 9] }
+n2.top -> n3.bottom
+joint n4 { rows: 1 }
+n3.top -> n4.bottom
+split n5 { degree: 2  folded: false }
+n4.top -> n5.branches[1]
+sheet n6 { length: 1  type: cylinder  width: 7  gauge: half }
+n5.branches[0] -> n6.bottom
+start n6.top
+"""
+    r = compile_source(src, "t.knit", until="stitch-graph")
+    assert r.graph is not None, r.diagnostics.render()
+    assert _narrow_machine(r.graph) == "E601"

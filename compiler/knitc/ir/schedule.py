@@ -178,7 +178,10 @@ class Schedule:
 
     @property
     def width(self) -> int:
-        return int(self.needle.max()) + 1 if self.needle.size else 0
+        """Needles the garment uses: every knitted loop and every held loop moved aside."""
+        if not self.needle.size:
+            return 0
+        return int(max(self.needle.max(), self.align_needle.max(initial=0))) + 1
 
     def stats(self) -> dict[str, Any]:
         circ = self.kind == CIRCULAR

@@ -95,16 +95,21 @@ def schedule(g: StitchGraph, slices: Slices, *, needles: int, diags: Diagnostics
     lay.run()
     off = _Offsets(ctx, lay, needles, max_sweeps, gap)
     if not off.run():
-        wide = _Offsets(ctx, lay, 1 << 30, 1, gap)
+        # Placement is greedy, so the right end of the bed can stop it where an unbounded
+        # bed finds room: that placement is used when it fits, so the width E601 reports
+        # is always enough.
+        wide = _Offsets(ctx, lay, 1 << 30, max_sweeps, gap)
         wide.run()
-        need = int(wide.needle().max()) + 1 if ctx.ne else 0
-        k = off.failed_slice
-        span = g.spans[int(g.span[int(slices.stitch[int(slices.start[k])])])] \
-            if k is not None and slices.length[k] else None
-        diags.error("E601", f"the garment needs {need} needles but the machine has {needles}",
-                    span, hint="narrow the design, knit branches in full gauge, or use a "
-                    "wider machine")
-        return None
+        need = wide.width() if ctx.ne else 0
+        if need > needles:
+            k = off.failed_slice
+            span = g.spans[int(g.span[int(slices.stitch[int(slices.start[k])])])] \
+                if k is not None and slices.length[k] else None
+            diags.error("E601", f"the garment needs {need} needles but the machine has "
+                        f"{needles}", span, hint="narrow the design, knit branches in full "
+                        "gauge, or use a wider machine")
+            return None
+        off = wide
     needle = off.needle()
     a_slice, a_stitch, a_bed, a_needle = off.alignments()
     sched = Schedule(
@@ -1058,6 +1063,10 @@ class _Offsets:
 
     def needle(self) -> np.ndarray:
         return self.x[self.ctx.soe] + self.relp
+
+    def width(self) -> int:
+        """Needles used, as `Schedule.width` counts them."""
+        return int(max(self.needle().max(), self.alignments()[3].max(initial=0))) + 1
 
     def alignments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         lp, ns = self.loops, self.ctx.ns
