@@ -279,11 +279,11 @@ def test_split_by_side_runs_each_bed_as_its_own_pass(split, monkeypatch):
         if len({bed[s] for s in users}) < 2:
             continue
         mixed += 1
-        # the pass's ops: up to the next pass's first (later transfers of its loops belong
-        # to the next course's shaping)
+        # the pass's ops: its action pass's, up to the next pass's first (later transfers of
+        # its loops belong to the alignment and shaping of the next slices)
         end = min(first_op[s] for s in passes[k + 1][0]) if k + 1 < len(passes) else len(ops)
         where = {s: [i for i, o in enumerate(ops[:end]) if o.stitch == s and o.kind in (
-            "xfer", "knit", "tuck")] for s in ids}
+            "xfer", "knit", "tuck") and o.phase == "action"] for s in ids}
         if split:
             assert [len({bed[s] for s in p}) for p in parts] == [1] * len(parts) > [1]
             for p, q in zip(parts, parts[1:]):  # every op of a run before the next run's

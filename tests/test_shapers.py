@@ -249,24 +249,55 @@ def test_stdlib_defines_the_documented_shapers():
 
 
 @settings(max_examples=200, deadline=None)
-@given(sizes)
-def test_zigzag_is_valid_and_alternates(mn):
+@given(sizes, st.sampled_from([0, 1]))
+def test_zigzag_is_valid_and_alternates(mn, turn):
     M, N = mn
-    src = shape(STD["zigzag"], M, N)
+    src = shape(STD["zigzag"], M, N, turn=turn)
     check_valid(src, M, N)
-    expected = shape("left" if M % 2 == 0 else "right", M, N)
+    expected = shape("left" if turn == 0 else "right", M, N)
     assert src.tolist() == expected.tolist()
 
 
 @settings(max_examples=200, deadline=None)
 @given(st.integers(2, 200).flatmap(
-    lambda m: st.tuples(st.just(m), st.integers(m, 2 * m - 2))))
-def test_edges_is_valid_over_its_domain(mn):
+    lambda m: st.tuples(st.just(m), st.integers(m, 2 * m - 2))), st.sampled_from([0, 1]))
+def test_edges_is_valid_over_its_domain(mn, turn):
     M, N = mn  # documented domain: N - M <= M - 2
-    src = shape(STD["edges"], M, N)
+    src = shape(STD["edges"], M, N, turn=turn)
     check_valid(src, M, N)
     # the selvedge stitches map straight up, into one stitch each
     assert src[:2].tolist() == [0, 1] and src[-2:].tolist() == [M - 2, M - 1]
+
+
+@settings(max_examples=200, deadline=None)
+@given(sizes)
+def test_two_edge_shapers_give_the_odd_increase_to_the_edge_turn_names(mn):
+    # turn 1 is turn 0 seen in a mirror: the odd increase changes edge, nothing else does
+    M, N = mn
+    assert shape("sides", M, N, turn=1).tolist() == mirror(shape("sides", M, N), M).tolist()
+    if N - M <= M - 2:
+        assert shape(STD["edges"], M, N, turn=1).tolist() == \
+            mirror(shape(STD["edges"], M, N), M).tolist()
+
+
+@settings(max_examples=300, deadline=None)
+@given(sizes, st.floats(0, 1, exclude_max=True))
+def test_uniform_with_a_phase_is_valid_and_keeps_its_spacing(mn, phase):
+    M, N = mn
+    src = shape("uniform", M, N, phase=phase)
+    check_valid(src, M, N)
+    # as many increases as without a phase, at most one apart from evenly spaced
+    split = np.flatnonzero(np.bincount(src, minlength=M) == 2)
+    assert split.size == N - M
+    if split.size > 1:
+        gaps = np.diff(split)
+        assert gaps.max() - gaps.min() <= 1
+
+
+def test_a_phase_moves_uniforms_increases_along_the_course():
+    sites = {tuple(np.flatnonzero(np.bincount(shape("uniform", 20, 21, phase=p)) == 2))
+             for p in (0.0, 0.25, 0.5, 0.75)}
+    assert len(sites) == 4
 
 
 def test_edges_outside_its_domain_is_a_located_error():

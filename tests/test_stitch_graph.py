@@ -32,6 +32,7 @@ from golden import assert_golden
 from knitc.cli import main
 from knitc.driver import compile_file, compile_source, emit_json
 from knitc.ir import stitch_graph as sg
+from knitc.passes.shape import GOLDEN as GOLDEN_STEP
 from knitc.passes.shapers import shape as shaper_map
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -191,11 +192,11 @@ def test_tube_increases_and_decreases_per_bed():
         assert all(len(prevs(g, t)) == 1 for t in nexts(g, s))
     for s in dec:
         assert all(len(nexts(g, p)) == 1 for p in prevs(g, s))
-    # each bed follows the uniform mapping 4 -> 6, and reads it backwards for 6 -> 4
-    expect = list(shaper_map("uniform", 4, 6))
+    # each bed follows the uniform mapping 4 -> 6, and reads it backwards for 6 -> 4; the
+    # spacing's phase moves on by the golden ratio at each change
     for bed in (FRONT, BACK):
-        assert half_src(g, 0, 1, bed) == expect
-        assert half_src(g, 2, 1, bed) == expect
+        assert half_src(g, 0, 1, bed) == list(shaper_map("uniform", 4, 6))
+        assert half_src(g, 2, 1, bed) == list(shaper_map("uniform", 4, 6, phase=GOLDEN_STEP))
 
 
 def test_flat_increase_links():
@@ -225,7 +226,10 @@ def test_shapers_on_a_sheet(shaper):
               f"sheet s {{ type: flat  length: 3  width: [0: 4, 0.5: 6, 1: 4]  shaper: {shaper} }}\n")
     assert lens(g, range(3)) == [4, 6, 4]
     assert half_src(g, 0, 1, FRONT) == SHAPERS[shaper]
-    assert half_src(g, 2, 1, FRONT) == SHAPERS[shaper]  # the decrease reads it backwards
+    # the decrease reads it backwards (uniform's spacing with the second change's phase)
+    second = list(shaper_map("uniform", 4, 6, phase=GOLDEN_STEP)) if shaper == "uniform" \
+        else SHAPERS[shaper]
+    assert half_src(g, 2, 1, FRONT) == second
 
 
 @pytest.mark.parametrize("shaper", list(SHAPERS))
@@ -236,7 +240,7 @@ def test_shapers_agree_with_the_mapping_module_on_a_tube(shaper):
     assert r.ok, r.diagnostics.render()
     g = r.graph
     program = r.skeleton.shapers.get(shaper, shaper)
-    expect = list(shaper_map(program, 7, 12))
+    expect = list(shaper_map(program, 7, 12))  # the first change: turn 0, phase 0
     for bed in (FRONT, BACK):
         assert half_src(g, 0, 1, bed) == expect
 

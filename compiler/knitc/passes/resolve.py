@@ -48,6 +48,8 @@ ACTION_FUNCTIONS = {
     "drop": (1, 1), "kickback": (0, 3), "rack": (1, 1), "range": (1, 3), "len": (1, 1),
 }
 ACTION_WORDS = ("left", "right", "front", "back")
+SHAPER_CONTEXT = ("turn",)
+"""Names a shaper program can read besides its parameters (`passes.shapers`)."""
 BUILTIN_ACTIONS = ("knit", "purl", "tuck", "miss", "kickback", "split")
 SHAPER_FUNCTIONS = {"range": (1, 3), "len": (1, 1)}
 
@@ -862,6 +864,8 @@ class _Resolver:
                 allowed |= set(QUERY_WORDS)
             elif ctx == "action":
                 allowed |= set(ACTION_CONTEXT) | set(ACTION_WORDS)
+            elif ctx == "shaper":
+                allowed |= set(SHAPER_CONTEXT)
             if e.id not in allowed:
                 self.diags.error("E221", f"unknown name `{e.id}`", e.span,
                                  hint=_suggest(e.id, allowed) or self._name_hint(ctx))
@@ -889,6 +893,9 @@ class _Resolver:
                     "bind other names with `let`")
         if ctx == "action":
             return "available: " + ", ".join(ACTION_CONTEXT) + ", and names bound with `let`"
+        if ctx == "shaper":
+            return ("available: M, N (the shaper's parameters), `turn`, and names bound with "
+                    "`let` or a `for` loop")
         return "bind names with `let` or a `for` loop"
 
     def _check_block(self, block: ast.Block, ctx: str, scope: set[str]) -> None:

@@ -36,6 +36,8 @@ from knitc.passes.shapers import MappingError, wales_between
 from knitc.passes.shapers import shape as shaper_map
 
 FRONT, BACK = 0, 1
+GOLDEN = (5 ** 0.5 - 1) / 2
+"""Step of `uniform`'s phase between changes: successive phases fill [0, 1) evenly."""
 PREDEFINED = ("uniform", "center", "left", "right", "sides")
 
 
@@ -188,7 +190,13 @@ class _State:
     diags: Diagnostics
     partner: dict[ItfId, ItfId]
     exit_course: dict[ItfId, Course] = field(default_factory=dict)
-    user_maps: dict[tuple[str, int, int], np.ndarray] = field(default_factory=dict)
+    user_maps: dict[tuple[str, int, int, int], np.ndarray] = field(default_factory=dict)
+    odd_changes: dict[tuple[str, int], int] = field(default_factory=dict)
+    """(node, bed) -> how many of its course changes so far were by an odd number of stitches:
+    the shapers' `turn` alternates with it (`passes.shapers`)."""
+    changes: dict[tuple[str, int], int] = field(default_factory=dict)
+    """(node, bed) -> how many of its course changes so far changed the width at all:
+    `uniform`'s phase moves with it."""
     yarn_end: dict[str, Course] = field(default_factory=dict)
     """The last course a node knitted (where its yarn is), for continuity walks."""
     failed: bool = False
@@ -394,13 +402,23 @@ def _link(state: _State, node: PrimNode, a: Course, b: Course) -> None:
                     "width", node.span), hint="lengthen the node or soften its width profile")
             state.failed = True
             return
+        # the odd stitch of a change goes to alternating edges (both beds alike: a tube's
+        # fold gets the increase on its front and back side in the same course, a clean
+        # seam line that grows the ring at one end); even spacing moves on at each change
+        key = (node.name, bed)
+        odd, k = state.odd_changes.get(key, 0), state.changes.get(key, 0)
+        turn = odd % 2
+        phase = (k * GOLDEN) % 1.0
+        if large != small:
+            state.changes[key] = k + 1
+            state.odd_changes[key] = odd + (large - small) % 2
         try:
             if program is None:
-                src = shaper_map(str(shaper), small, large)
+                src = shaper_map(str(shaper), small, large, turn=turn, phase=phase)
             else:
-                key = (str(shaper), small, large)
+                key = (str(shaper), small, large, turn)
                 if key not in state.user_maps:  # courses repeat: run each (M, N) once
-                    state.user_maps[key] = shaper_map(program, small, large,
+                    state.user_maps[key] = shaper_map(program, small, large, turn=turn,
                                                       param=state.param)
                 src = state.user_maps[key]
         except EvalError as err:

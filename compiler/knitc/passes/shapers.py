@@ -10,7 +10,21 @@ smaller-course stitch one or two consecutive stitches (two = an increase, or a d
 read backwards).
 
 * `uniform`, `center`, `left`, `right`, `sides` follow the original system's formulas
-  (seed-systems §1.6; JavaScript's Math.round = round half up), vectorised.
+  (seed-systems §1.6; JavaScript's Math.round = round half up), vectorised, except where the
+  original put every odd increase on one edge: `sides` gives the odd one of a course to the
+  left edge when `turn` is 0 and to the right edge when it is 1.
+* `turn` (0 or 1) is the shape pass's alternation: it flips each time a piece's width
+  changes by an odd number of stitches on a bed, the same on a tube's two beds, so a piece
+  shaped at both edges grows or shrinks at both alike: one course puts the odd increase on
+  both sides of the left fold, the next odd one on both sides of the right fold (the
+  original made all of them at the left fold). Both sides of a fold in the same course keep
+  the seam line symmetric and grow the ring at one end, which the layout follows cheaply.
+  User shapers read it as the name `turn`.
+* `phase` (in [0, 1)) shifts `uniform`'s even spacing by a fraction of a stitch. At 0 it is
+  the original's formula; the shape pass moves it by the golden ratio from one change of a
+  piece to the next, so a piece that changes by a stitch or two per course spreads its
+  increases evenly over the whole course instead of stacking them in one line, as a round
+  yoke wants.
 * `none` is not a mapping: it means "grid wales", each stitch continuing from the stitch on
   the same needle, which depends on the courses' alignment and offsets. The shape pass
   builds those wales itself; `shape("none", ...)` raises ValueError.
@@ -125,9 +139,13 @@ def _wales(i: np.ndarray, first: np.ndarray, split: np.ndarray):
     return np.concatenate([i, i[split]]), np.concatenate([first, first[split] + 1])
 
 
-def _uniform(M: int, N: int):
+def _uniform(M: int, N: int, phase: float = 0.0):
     i = np.arange(M, dtype=np.int64)
     r = N / M  # as the original: i * r, not i * N / M (they can round differently)
+    if phase:  # the same spacing, shifted by a fraction of a stitch
+        at = _round_half_up((np.arange(M + 1) + phase) * r)
+        j = at - at[0]
+        return _wales(i, j[:-1], j[1:] != j[:-1] + 1)
     j1 = _round_half_up(i * r)
     j2 = _round_half_up((i + 1) * r)
     return _wales(i, j1, j2 != j1 + 1)
@@ -156,10 +174,10 @@ def _right(M: int, N: int):
     return _wales(i, np.where(split, o + 2 * (i - o), i), split)
 
 
-def _sides(M: int, N: int):
+def _sides(M: int, N: int, turn: int = 0):
     i = np.arange(M, dtype=np.int64)
     d = N - M
-    m1 = math.ceil(d / 2)
+    m1 = math.ceil(d / 2) if turn == 0 else d // 2
     m2 = d - m1
     k = M - 1 - i  # i counted from the right
     left, right = i < m1, k < m2
@@ -172,18 +190,24 @@ _FORMULAS: dict[str, Callable[[int, int], tuple[np.ndarray, np.ndarray]]] = {
 }
 
 
-def predefined_wales(name: str, M: int, N: int) -> tuple[np.ndarray, np.ndarray]:
+def predefined_wales(name: str, M: int, N: int, turn: int = 0, phase: float = 0.0
+                     ) -> tuple[np.ndarray, np.ndarray]:
     """The (smaller, larger) wales of a predefined shaper, unvalidated, as the original
-    emitted them: each source once in order, then the second wale of each split."""
+    emitted them: each source once in order, then the second wale of each split. `sides`
+    reads `turn`, `uniform` `phase` (the module docstring); the others neither."""
     _check_domain(M, N)
     if M == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    if name == "sides":
+        return _sides(M, N, turn)
+    if name == "uniform":
+        return _uniform(M, N, phase)
     return _FORMULAS[name](M, N)
 
 
 @lru_cache(maxsize=4096)
-def _predefined(name: str, M: int, N: int) -> np.ndarray:
-    src = mapping_from_pairs(M, N, *predefined_wales(name, M, N))
+def _predefined(name: str, M: int, N: int, turn: int, phase: float) -> np.ndarray:
+    src = mapping_from_pairs(M, N, *predefined_wales(name, M, N, turn, phase))
     src.flags.writeable = False  # shared by every caller through the cache
     return src
 
@@ -263,10 +287,11 @@ def _pair(v: tuple, span: Span, kind: str) -> tuple[int, int]:
 def run_user_shaper(defn: ast.ShaperDef, M: int, N: int, *,
                     param: Callable[[str, Span], Value] | None = None,
                     prop: Callable[[str | None, str, Span], Value] | None = None,
-                    budget: int = DEFAULT_BUDGET) -> np.ndarray:
+                    budget: int = DEFAULT_BUDGET, turn: int = 0) -> np.ndarray:
     """Run a user shaper for M -> N (M <= N <= 2M) and return its validated `src` array.
 
-    `param`/`prop` resolve `#name` and `@prop` in the program (the evaluator's hooks).
+    `param`/`prop` resolve `#name` and `@prop` in the program (the evaluator's hooks);
+    `turn` is bound to the name `turn` unless a parameter takes that name.
     Raises `EvalError` located in the program; ValueError if M, N are out of domain.
     """
     _check_domain(M, N)
@@ -277,7 +302,8 @@ def run_user_shaper(defn: ast.ShaperDef, M: int, N: int, *,
     collect = _Collector(M, N)
     interp = Interpreter(words=(), on_map=collect, param=param, prop=prop, budget=budget,
                          what=f"shaper `{name}`")
-    bindings: dict[str, Value] = {defn.params[0].name.name: M, defn.params[1].name.name: N}
+    bindings: dict[str, Value] = {"turn": turn, defn.params[0].name.name: M,
+                                  defn.params[1].name.name: N}
     for p in defn.params[2:]:
         assert p.default is not None
         bindings[p.name.name] = interp.evaluate(p.default, bindings)
@@ -293,21 +319,24 @@ def run_user_shaper(defn: ast.ShaperDef, M: int, N: int, *,
 
 # ---- the entry point --------------------------------------------------------------------------
 
-def shape(shaper: str | ast.ShaperDef, M: int, N: int, **hooks) -> np.ndarray:
+def shape(shaper: str | ast.ShaperDef, M: int, N: int, *, turn: int = 0,
+          phase: float = 0.0, **hooks) -> np.ndarray:
     """The `src` array mapping M stitches onto N (M <= N <= 2M) for a predefined shaper name
-    or a user `ShaperDef` (`hooks`: `param`, `prop`, `budget` of `run_user_shaper`).
+    or a user `ShaperDef` (`hooks`: `param`, `prop`, `budget` of `run_user_shaper`); `turn`
+    and `phase` are the shape pass's alternation (see the module docstring).
 
-    Predefined mappings are cached by (name, M, N) and returned read-only.
+    Predefined mappings are cached by (name, M, N, turn, phase) and returned read-only.
     """
     if isinstance(shaper, ast.ShaperDef):
-        return run_user_shaper(shaper, M, N, **hooks)
+        return run_user_shaper(shaper, M, N, turn=turn, **hooks)
     if shaper == "none":
         raise ValueError("shaper `none` has no mapping: its wales join stitches on the same "
                          "needle (grid wales), which the shape pass builds from the layout")
     if shaper not in _FORMULAS:
         raise ValueError(f"`{shaper}` is not a predefined shaper; pass its ShaperDef")
     _check_domain(M, N)
-    return _predefined(shaper, M, N)
+    return _predefined(shaper, M, N, turn if shaper == "sides" else 0,
+                       phase if shaper == "uniform" else 0.0)
 
 
 def wales_between(prev_len: int, next_len: int, src: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
