@@ -287,16 +287,34 @@ def _check_holes(g: StitchGraph, out: Expected) -> None:
 # ---- whole-fabric checks ----------------------------------------------------------------------
 
 def check_fabric(result: Result, fab: Fabric, *, dropped_ok: Iterable[int] = ()) -> list[Mismatch]:
-    """Every mismatch between the design of `result` and the knitted `fab`."""
+    """Every mismatch between the design of `result` and the knitted `fab`. Loops the design
+    lets go (`cast_off: none`, which knitc warns about with W601) and `dropped_ok` are not
+    reported as unattached."""
     g = result.graph
     assert g is not None
     ex = expect(result, fab)
     bad = list(ex.mismatches)
-    bad += _unattached(g, fab, ex, set(dropped_ok))
+    bad += _unattached(g, fab, ex, set(dropped_ok) | _not_cast_off(result))
     bad += _rings(g, fab, ex)
     bad += _connections(result, ex)
     bad += _pieces(g, result.skeleton, ex)
     return bad
+
+
+def _not_cast_off(result: Result) -> set[int]:
+    """The ending stitches of courses whose cast-off is `none`: the design drops them."""
+    from knitc.passes.codegen import options_from_skeleton
+
+    g, skel = result.graph, result.skeleton
+    assert g is not None and skel is not None
+    opts = options_from_skeleton(skel)
+    ends = (g.wale_next < 0).all(1)
+    out: set[int] = set()
+    for c in range(g.n_courses):
+        if opts.cast_off_for(g.course_names.get(c, ())) == "none":
+            ids = g.course_ids(c)
+            out.update(ids[ends[ids]].tolist())
+    return out
 
 
 def _unattached(g: StitchGraph, fab: Fabric, ex: Expected, dropped_ok: set[int]

@@ -34,6 +34,26 @@ def _compile(prog: Program):
     return r
 
 
+def backward_steps(program) -> list[str]:
+    """Knits of one carrier in one direction, one after the other, that go against that
+    direction: the carriage would have to turn back between them. A direction taken from
+    the design instead of the needles (a ring laid out rotated) makes them. (Tucks are left
+    out: a kickback tucks against the carriage on purpose.)"""
+    out, last, rack = [], None, 0.0
+    for i, op in enumerate(program.ops):
+        if op.kind == "rack":
+            rack = float(op.value)
+        if op.kind not in ("knit", "split"):
+            if op.kind in ("xfer", "drop", "miss", "in", "inhook", "out", "outhook"):
+                last = None
+            continue
+        here = op.needle.position(rack)
+        if last is not None and last[0] == (op.carriers, op.dir) and (here - last[1]) * op.dir < 0:
+            out.append(f"op {i}: {op} after {last[2]}")
+        last = ((op.carriers, op.dir), here, str(op))
+    return out
+
+
 @SETTINGS
 @given(programs())
 def test_generated_programs_compile_to_valid_machine_programs(prog):
@@ -42,6 +62,7 @@ def test_generated_programs_compile_to_valid_machine_programs(prog):
         return
     assert verify_machine(r.program) == []
     assert [f for f in simulate(r.program) if f.is_error] == []
+    assert backward_steps(r.program) == []
     # every stitch forms a loop; the sibling of a split increase is the split's old loop and
     # is visited by a miss (knitsketching's SPLIT + MISS)
     knitted = {op.stitch for op in r.program if op.kind in ("knit", "tuck", "split", "miss")}

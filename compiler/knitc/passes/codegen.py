@@ -132,6 +132,8 @@ class _Gen:
     needle holds fabric (a full-gauge tube)."""
     course_needles: set[Pos] = field(default_factory=set)
     """Where the stitches of the course being knitted are knitted (set once per course)."""
+    fetch: set[int] = field(default_factory=set)
+    """Siblings of closing splits in a later slice: they fetch the split's old loop."""
     split_fallbacks: Counter = field(default_factory=Counter)
     """Nodes -> split increases that had to use a kickback (no free needle to split to)."""
     warned: set[str] = field(default_factory=set)
@@ -146,8 +148,13 @@ class _Gen:
     sides: tuple | None = None
     """`instructions.right_left(g)`, computed when a course first carries loops."""
 
+    dirs: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int8))
+    """Per visit, the carriage direction on the needles the schedule knits it on (the
+    trace's is the design frame's: a rotated ring or a mirrored row reverses it)."""
+
     def __post_init__(self) -> None:
         self.knit_bed, self.knit_needle = sc.knit_positions(self.sched, self.g.n_stitches)
+        self.dirs = tr.dirs_along(self.knit_bed, self.knit_needle, self.t.stitch, self.t.yarn)
         g = self.g
         self.carrying = np.zeros(g.n_courses, bool)
         self.carrying[g.course[np.isin(g.instr, CARRIED)]] = True
@@ -476,7 +483,7 @@ def _park(gen: _Gen, moves: list, toward: int) -> None:
 
 def _entries(gen: _Gen, chunk: np.ndarray) -> list[cast.Entry]:
     return [cast.Entry(gen.pos(int(s)), int(d) or 1, int(s))
-            for s, d in zip(gen.t.stitch[chunk], gen.t.dir[chunk], strict=True)]
+            for s, d in zip(gen.t.stitch[chunk], gen.dirs[chunk], strict=True)]
 
 
 def _cast_on(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, new: bool) -> list[Pos]:
@@ -536,8 +543,12 @@ def _precast_cover(gen: _Gen, node: int) -> set[Pos]:
 
 def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int, int]) -> None:
     incs = _increases(gen, chunk, primary)
+    for s in gen.t.stitch[chunk].tolist():
+        if s in gen.fetch:
+            gen.fetch.discard(s)
+            incs[s] = ("fetch",)
     acts = [_action(gen, ctx, int(s), int(d) or 1, incs.get(int(s)))
-            for s, d in zip(gen.t.stitch[chunk], gen.t.dir[chunk], strict=True)]
+            for s, d in zip(gen.t.stitch[chunk], gen.dirs[chunk], strict=True)]
     for part in actions.prepare_pass(gen, acts):  # one, or per bed (`split_by_side`)
         run_actions(part)
     if gen.bed.rack:  # a user action's transfers may leave the machine racked
@@ -584,6 +595,8 @@ def _action(gen: _Gen, ctx: cast.Ctx, s: int, d: int, inc: tuple | None) -> Acti
         return Action(s, main=[knit])
     if inc[0] == "kickback":
         return Action(s, main=[kickback])
+    if inc[0] == "fetch":
+        return Action(s, main=[lambda: _fetch(gen, s), knit])
     if inc[0] == "miss":
         return Action(s, main=[missed])
     _, target, sibling = inc
@@ -658,7 +671,15 @@ def _increases(gen: _Gen, chunk: np.ndarray, primary: dict[int, int]) -> dict[in
 
     A missed sibling holds no yarn of this course, so two neighbours are never both missed:
     the yarn would float across them (a tube growing out of a collapsed end would float
-    across its whole back bed); the second one uses a kickback."""
+    across its whole back bed); the second one uses a kickback.
+
+    An increase whose children lie on the two sides of the fabric (a closed tube end
+    opening into a tube) is always a split, straight onto the sibling's needle when it
+    faces, else onto a free needle near it, and the sibling, knitted later in the course,
+    fetches the old loop and knits through it (("fetch",)): a kickback there would leave
+    the other side's stitch held by nothing but the yarn, and a row of them is an open end,
+    not a closed one. A sibling in a later slice of the course is remembered in
+    `gen.fetch`."""
     g, bed = gen.g, gen.bed
     ids = [int(s) for s in gen.t.stitch[chunk]]
     in_course = set(ids)
@@ -667,11 +688,25 @@ def _increases(gen: _Gen, chunk: np.ndarray, primary: dict[int, int]) -> dict[in
     visit = {s: i for i, s in enumerate(ids)}
     missed: set[int] = set()
     out: dict[int, tuple] = {}
+    course = int(g.course[ids[0]])
     for p, c1 in sorted(primary.items(), key=lambda pc: visit.get(pc[1], 0)):
         kids = [int(k) for k in g.wale_next[p] if k >= 0]
         if len(kids) != 2:
             continue
         c2 = kids[0] if kids[1] == c1 else kids[1]
+        src, sib = gen.pos(c1), gen.pos(c2)
+        if c1 in in_course and int(g.side[c1]) != int(g.side[c2]) \
+                and int(g.course[c2]) == course and not bed.loops.get(sib, 0) \
+                and bed.where.get(p) == src and visit[c1] < visit.get(c2, len(ids)):
+            target = _split_target(gen, src, sib, busy)
+            if target is not None:  # c2, later in this course, knits through the old loop
+                out[c1] = ("split", target, c2)
+                busy.add(target)
+                if c2 in in_course:
+                    out[c2] = ("fetch",)
+                else:
+                    gen.fetch.add(c2)
+                continue
         if c2 not in in_course or bed.loops.get(gen.pos(c2), 0):
             continue
         node = int(g.node[c2])
@@ -729,6 +764,19 @@ def _split(gen: _Gen, ctx: cast.Ctx, s: int, d: int, target: Pos, sibling: int) 
     bed.set_rack(0)
 
 
+def _fetch(gen: _Gen, s: int) -> None:
+    """Bring the loop standing for `s` (a closing split's old loop) to its needle, if it is
+    not there yet."""
+    bed, home = gen.bed, gen.pos(s)
+    here = bed.where.get(s)
+    if here is None or here == home:
+        return
+    _park(gen, [(s, here, home)], home[1])
+    bed.prog.stitch_number(gen.opts.numbers.transfer)
+    move(bed, [(s, here, home)])
+    bed.set_rack(0)
+
+
 def _unsplit(gen: _Gen, target: Pos, sibling: int) -> None:
     """The split's post step: the old loop goes from the facing needle to its own (the
     sibling's) needle, so the next course finds every loop where the layout put it."""
@@ -773,7 +821,7 @@ def _cast_off(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, ends: list[int]) -> t
         return -1, 0
     order = {s: i for i, s in enumerate(ids)}
     end_set = set(ends)
-    last_dir = int(t.dir[chunk[-1]]) or 1
+    last_dir = int(gen.dirs[chunk[-1]]) or 1
     left, left_dir = -1, 0
     todo = list(reversed(runs))
     while todo:
