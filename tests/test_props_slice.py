@@ -58,6 +58,10 @@ def reference_slices(g: StitchGraph, t: Trace, flat: int, tube: int) -> list[dic
     kids = [[int(k) for k in row if k >= 0] for row in sl.ccw_kids(g, ccw)]
     prevs = [[int(p) for p in row if p >= 0] for row in g.wale_prev]
     dec = [len(kids[s]) == 1 and len(prevs[kids[s][0]]) == 2 for s in range(g.n_stitches)]
+    gauge = [int(g.course_gauge[int(g.course[s])]) for s in range(g.n_stitches)]
+    # a derived cycle stays in one gauge: a loop whose next wales are in the other gauge
+    # waits; a fresh cycle is built in its own stitch's gauge, where only decreases wait
+    waits = [dec[s] or any(gauge[k] != gauge[s] for k in kids[s]) for s in range(g.n_stitches)]
     shaping = shaping_rule(g)
     done = [0] * g.n_stitches
 
@@ -67,13 +71,13 @@ def reference_slices(g: StitchGraph, t: Trace, flat: int, tube: int) -> list[dic
     fold = [len(kids[s]) == 2 and g.side[kids[s][0]] != g.side[kids[s][1]]
             for s in range(g.n_stitches)]
 
-    def derive(cyc: list[list[int]]) -> list[list[int]]:
+    def derive(cyc: list[list[int]], fresh: bool = False) -> list[list[int]]:
         out, round_the_back = [], []
         for s, state in cyc:
             if state == E or (state == A and not finished(s)):
                 if not finished(s):
                     out.append([s, E])
-            elif state == S or dec[s]:
+            elif state == S or (dec[s] if fresh else waits[s]):
                 out.append([s, S])
             elif fold[s]:  # one child in place, the other round the back of the ring
                 out += [[k, E] for k in kids[s][:1] if not finished(k)]
@@ -86,7 +90,7 @@ def reference_slices(g: StitchGraph, t: Trace, flat: int, tube: int) -> list[dic
         c = int(g.course[s])
         if COURSE_KINDS[int(g.course_kind[c])] in ("short_row", "continuity") and prevs[s]:
             c = int(g.course[max(prevs[s])])
-        return derive([[int(x), A] for x in sl.course_cycle(g, c, ccw)])
+        return derive([[int(x), A] for x in sl.course_cycle(g, c, ccw)], fresh=True)
 
     def take(sli: dict, s: int, check_limit: bool) -> bool:
         if check_limit and sli["shaping"] + shaping[s] > sli["limit"]:

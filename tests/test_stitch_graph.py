@@ -498,7 +498,9 @@ def test_different_sizes_are_spread():
 
 def test_gauge_change_spreads_full_onto_half():
     # 6 per bed at full gauge span the needles of 3 per bed at half gauge: the courses stay
-    # apart and each half-gauge stitch i takes full-gauge stitches 2i-1 and 2i (mod 12)
+    # apart and each half-gauge stitch i takes full-gauge stitches 2i and 2i + 1, the loops
+    # of its own bed (the original took 2i - 1 and 2i, so the pairs at the folds straddled
+    # them and the rings had to be laid out rotated against each other)
     g = build("tube a { length: 2  width: 6 }\ntube b { length: 2  width: 3  gauge: half }\n"
               "a.top -> b.bottom\n")
     top, bottom = named(g, "a.top"), named(g, "b.bottom")
@@ -506,7 +508,8 @@ def test_gauge_change_spreads_full_onto_half():
     assert int(g.course_gauge[top]) == 1 and int(g.course_gauge[bottom]) == 2
     big = g.course_ids(top)
     for i, s in enumerate(g.course_ids(bottom)):
-        assert prevs(g, s) == sorted(int(big[k % 12]) for k in (2 * i - 1, 2 * i))
+        assert prevs(g, s) == [int(big[2 * i]), int(big[2 * i + 1])]
+        assert {int(g.side[p]) for p in prevs(g, s)} == {int(g.side[s])}
     assert g.n_stitches == 12 * 2 + 6 * 2
 
 

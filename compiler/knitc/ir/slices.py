@@ -7,8 +7,9 @@ next node's first course), each in one of three states:
 
 - EXPECTED: a stitch whose previous wales' loops are on the bed, waiting to be knitted;
 - ACTIVE: knitted in this slice (exactly the slice's visits);
-- SUSPENDED: a decreasing stitch already knitted whose loop stays on its needle until the
-  stitch it merges into is knitted.
+- SUSPENDED: a stitch already knitted whose loop stays on its needle, held: a decreasing
+  stitch until the stitch it merges into is knitted, and a stitch whose next wales are in
+  another gauge until the slice of that gauge takes it (`waiting`).
 
 Slices are stored as parallel numpy arrays (one row per slice) plus one flat array of
 cycle entries (`stitch`, `state`), where slice k owns entries `start[k] : start[k] +
@@ -132,6 +133,22 @@ def decreasing(g: StitchGraph) -> np.ndarray:
     out = np.zeros(g.n_stitches, bool)
     one = n_next == 1
     out[one] = (g.wale_prev[child[one]] >= 0).sum(1) == 2
+    return out
+
+
+def waiting(g: StitchGraph) -> np.ndarray:
+    """Per stitch: whether its loop waits SUSPENDED once knitted, instead of giving way to
+    its next wales in the cycle: a decreasing stitch (`decreasing`), and a stitch whose next
+    wales are in a course of another gauge. A cycle mixing the two gauges would lay the
+    finer loops out in the coarser spacing (or the other way round); so the loops of the
+    last course before a gauge change stay as they are, and the other gauge's slice starts
+    fresh from them. (A fresh cycle is always of its own stitch's gauge: there only
+    `decreasing` stitches wait.)"""
+    out = decreasing(g)
+    kid = g.wale_next.max(1)
+    has = kid >= 0
+    gauge = g.course_gauge[g.course]
+    out[has] |= gauge[kid[has]] != gauge[has]
     return out
 
 
@@ -335,7 +352,7 @@ def _verify_cycles(g: StitchGraph, t: Trace, sl: Slices) -> list[str]:
     n = g.n_stitches
     done = np.zeros(n, np.int32)  # visits so far
     ccw = ccw_courses(g)
-    kids, dec = ccw_kids(g, ccw), decreasing(g)
+    kids, dec, merging = ccw_kids(g, ccw), waiting(g), decreasing(g)
     fold = folds(g, kids)
     last_of_node: dict[int, int] = {}
     for k in range(sl.n_slices):
@@ -348,7 +365,7 @@ def _verify_cycles(g: StitchGraph, t: Trace, sl: Slices) -> list[str]:
             return [f"{where} expects a stitch that is already finished"]
         sus = st[state == SUSPENDED]
         if np.any((done[sus] < t.passes) | ~dec[sus]):
-            return [f"{where} suspends a stitch that is not a finished decreasing stitch"]
+            return [f"{where} suspends a stitch that is not a finished waiting stitch"]
         src = int(sl.derived_from[k])
         if sl.fresh[k] != (src < 0):
             return [f"{where} is fresh and derived at once, or neither"]
@@ -358,8 +375,8 @@ def _verify_cycles(g: StitchGraph, t: Trace, sl: Slices) -> list[str]:
             base = derive(kids, dec, *sl.cycle(src), done, t.passes, fold)
             what = f"the cycle derived from slice {src}"
         else:
-            base = fresh_cycle(g, ccw, kids, dec, int(t.stitch[sl.visit[k]]), done, t.passes,
-                               fold)
+            base = fresh_cycle(g, ccw, kids, merging, int(t.stitch[sl.visit[k]]), done,
+                               t.passes, fold)
             what = "the fresh cycle of its first stitch"
         problem = _check_cycle(g, *base, st, state)
         if problem:

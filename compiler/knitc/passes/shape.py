@@ -440,14 +440,20 @@ def _link(state: _State, node: PrimNode, a: Course, b: Course) -> None:
 def _spread(acc: _Acc, a: Course, b: Course) -> None:
     """Bind two courses of different sizes: each stitch of the smaller course takes up to
     two consecutive stitches of the larger one (the original's spread with factor = the
-    size ratio, capped at two so every link stays an increase or a decrease)."""
+    size ratio, capped at two so every link stays an increase or a decrease).
+
+    The groups start at the course's first stitch. The original started a pair one stitch
+    earlier (`round(-f / 2)`), which wraps round the course: on a flat course the first
+    stitch took the last one's loop, a wale across the whole piece, and on a ring every pair
+    at a fold straddled it, so the finer ring had to be laid out rotated against the coarser
+    one (wristband2 slid 6-7 needles at each gauge change)."""
     m, n = a.width, b.width
     if m == n:
         acc.wales(a.ids, b.ids)
         return
     small, large = (a, b) if m < n else (b, a)
     f = min(max(large.width // small.width, 1), 2)
-    start = round_half_up(-f / 2)
+    start = 0
     k = np.arange(small.width * f)
     big = (start + k) % large.width
     sml = k // f

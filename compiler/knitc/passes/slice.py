@@ -71,7 +71,8 @@ class _Slicer:
         self.ccw = sl.ccw_courses(g)
         self.kids = sl.ccw_kids(g, self.ccw)
         self.fold = sl.folds(g, self.kids)
-        self.dec = sl.decreasing(g)
+        self.dec = sl.waiting(g)
+        self.merging = sl.decreasing(g)  # a fresh cycle is of one gauge (`sl.waiting`)
         vs = t.stitch
         self.vs = vs
         n_prev = (g.wale_prev >= 0).sum(1)
@@ -191,7 +192,8 @@ class _Slicer:
             if self._activate(i) or self._merge(i):
                 return
             self._discard()
-        self._open(i, *sl.fresh_cycle(self.g, self.ccw, self.kids, self.dec, int(self.vs[i]),
+        self._open(i, *sl.fresh_cycle(self.g, self.ccw, self.kids, self.merging,
+                                      int(self.vs[i]),
                                       self.done, self.t.passes, self.fold), -1)
         if not (self._activate(i) or self._merge(i)):
             raise AssertionError(f"slicing: visit {i} is not in its own fresh cycle")
