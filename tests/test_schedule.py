@@ -245,6 +245,24 @@ def test_plain_tube_and_sheet_have_no_roll_and_no_shift(text):
     assert len(set(sched.offset.tolist())) == 1
 
 
+def test_a_gauge_change_keeps_the_layout_in_place():
+    # wristband2 changes gauge twice (full -> half -> full, equal needle spans): each course
+    # pairs with the one across the change loop for loop on its own bed, so no ring rolls
+    # and the garment stays on the 50 needles the original used (plus the left margin); it
+    # used to slide 6-7 needles at each change and take 78
+    path = Path(__file__).resolve().parent.parent / "examples" / "knitskel" / "wristband2.knit"
+    r = compile_source(path.read_text(), str(path), until="schedule")
+    assert r.ok, r.diagnostics.render()
+    sched = r.schedule
+    assert sched.width <= 52
+    assert sched.cost["moves_roll"] == 0
+    gauges = r.graph.course_gauge[r.graph.course[sched.slices.stitch[sched.slices.start]]]
+    change = np.flatnonzero(np.diff(gauges.astype(int)) != 0)
+    assert change.size >= 3
+    for k in change.tolist():  # the slices on both sides of each change sit at one offset
+        assert sched.offset[k] == sched.offset[k + 1]
+
+
 def test_a_shaping_slice_moves_only_the_loops_it_must():
     r = compile_source("tube t { length: 12, width: [0: 8, 1: 11], shaper: sides }", "t.knit",
                        until="schedule")
