@@ -378,10 +378,11 @@ def _connections(result: Result, ex: Expected) -> list[Mismatch]:
             touching.setdefault((a, b), set()).add(p)
             touching.setdefault((b, a), set()).add(s)
     out = []
+    sizes = np.bincount(g.node, minlength=len(g.node_names))
     for conn in skel.connections:
         na, nb = (g.node_names.index(i.node) for i in (conn.a, conn.b))
-        if na == nb:
-            continue
+        if na == nb or not sizes[na] or not sizes[nb]:
+            continue  # a node whose only course is the other's: joined by sharing it
         sides = []
         for itf, me, other in ((conn.a, na, nb), (conn.b, nb, na)):
             ids = [int(x) for c in courses_of.get(str(itf), []) for x in g.course_ids(c)

@@ -496,6 +496,25 @@ def test_different_sizes_are_spread():
     assert [prevs(g, s) for s in g.course_ids(b)] == [[0], [1], [2], [3], [], []]
 
 
+@pytest.mark.parametrize("shaper", ["uniform", "none"])
+def test_flat_branches_of_an_unfolded_split_continue_into_their_sheets(shaper):
+    # a tube opened into two flat strips: the second lies on the back bed, and its strip
+    # continues there, every stitch in a wale (it was cast on anew as a separate piece)
+    g = build("tube t { length: 2  width: 4 }\nsplit s { degree: 2  folded: false }\n"
+              f"sheet a {{ type: flat  length: 3  width: 4  shaper: {shaper} }}\n"
+              f"sheet b {{ type: flat  length: 3  width: 4  shaper: {shaper} }}\n"
+              "t.top -> s.base\ns.branches[0] -> a.bottom\ns.branches[1] -> b.bottom\n")
+    for branch, sheet, bed in (("s.branches[0]", "a", 0), ("s.branches[1]", "b", 1)):
+        c = named(g, branch)
+        assert {int(g.side[x]) for x in g.course_ids(c)} == {bed}
+        node = g.node_names.index(sheet)
+        ids = np.flatnonzero(g.node == node)
+        assert {int(g.side[x]) for x in ids} == {bed}  # the strip stays on its branch's bed
+        for course in [c] + sorted(set(g.course[ids].tolist()))[:-1]:
+            for x in g.course_ids(course):
+                assert len(nexts(g, int(x))) == 1, (sheet, course, int(x))
+
+
 def test_gauge_change_spreads_full_onto_half():
     # 6 per bed at full gauge span the needles of 3 per bed at half gauge: the courses stay
     # apart and each half-gauge stitch i takes full-gauge stitches 2i and 2i + 1, the loops

@@ -63,6 +63,10 @@ class Course:
         ids, needles = self.ids[sel], self.needle[sel]
         return ids[np.argsort(needles, kind="stable")]
 
+    def flat(self) -> np.ndarray:
+        """All ids of a flat course, in needle order (left to right)."""
+        return self.ids[np.argsort(self.needle, kind="stable")]
+
     @property
     def per_bed(self) -> int:
         return int(np.count_nonzero(self.side == FRONT)) if self.circular else self.width
@@ -297,6 +301,10 @@ def _sheet(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     max_w = max(widths)
     alignment = str(node.props.get("alignment", "center"))
     prev = _incoming(state, node, entry)
+    # a flat piece continues on the bed of the flat course it grows from (an unfolded
+    # split's branch may lie on the back bed)
+    flat_side = BACK if prev is not None and not tubular and not prev.circular \
+        and prev.width and bool((prev.side == BACK).all()) else FRONT
     direction = 1
     courses: list[Course] = []
     for c, w in enumerate(widths):
@@ -307,8 +315,10 @@ def _sheet(state: _State, node: PrimNode, visit: NodeVisit) -> None:
             cur = prev  # the connection's course is shared with the producer
         else:
             side, needle = ring(w, tubular, off)
-            if not tubular and direction < 0:
-                side, needle = side[::-1], needle[::-1]
+            if not tubular:
+                side = np.full(w, flat_side, np.int8)
+                if direction < 0:
+                    needle = needle[::-1]
             at_in, at_out = c == 0, c == length - 1
             closed = (at_in and itf_in.state == "closed") or (at_out and close_out)
             closing = (itf_in if at_in and itf_in.state == "closed" else itf_out).closing
@@ -389,8 +399,9 @@ def _link(state: _State, node: PrimNode, a: Course, b: Course) -> None:
         _grid_wales(acc, a, b)
         return
     program = None if shaper in PREDEFINED else state.skel.shapers.get(str(shaper))
-    for bed in ((FRONT, BACK) if a.circular or b.circular else (FRONT,)):
-        ha, hb = a.half(bed), b.half(bed)
+    for bed in ((FRONT, BACK) if a.circular or b.circular else (None,)):
+        # two flat courses are linked whole, whichever bed each lies on
+        ha, hb = (a.half(bed), b.half(bed)) if bed is not None else (a.flat(), b.flat())
         m, n = ha.size, hb.size
         if m == 0 or n == 0:
             continue
@@ -405,7 +416,7 @@ def _link(state: _State, node: PrimNode, a: Course, b: Course) -> None:
         # the odd stitch of a change goes to alternating edges (both beds alike: a tube's
         # fold gets the increase on its front and back side in the same course, a clean
         # seam line that grows the ring at one end); even spacing moves on at each change
-        key = (node.name, bed)
+        key = (node.name, FRONT if bed is None else bed)
         odd, k = state.odd_changes.get(key, 0), state.changes.get(key, 0)
         turn = odd % 2
         phase = (k * GOLDEN) % 1.0
