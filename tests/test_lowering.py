@@ -112,6 +112,15 @@ def test_a_front_move_carries_the_loop_and_leaves_an_eyelet(instr, shift):
     assert [o.kind for o in ops_of(r, stitch(r, 4, 4))] == ["tuck"]
     # and the neighbour's next stitch knits both loops together
     assert ops_of(r, stitch(r, 4, 4 + shift), "knit")
+    # the yarn-over is made at the course's stitch number: the pass is not cut in two
+    numbers = set()
+    for op in r.program.ops:
+        if op.kind == "stitch_number":
+            number = op.value
+        elif op.kind in ("knit", "tuck") and op.phase == "action" and op.stitch >= 0 \
+                and int(r.graph.course[op.stitch]) == 4:
+            numbers.add(number)
+    assert len(numbers) == 1
 
 
 def test_a_back_move_is_knitted_reversed_and_carried_from_the_back_bed():

@@ -83,7 +83,7 @@ from knitc.passes import casting as cast
 from knitc.passes.bed import Pos, Unsupported
 from knitc.passes.query import coords
 from knitc.passes.resolve import ACTION_WORDS, BUILTIN_ACTIONS
-from knitc.passes.steps import Action, continues_in_place
+from knitc.passes.steps import Action, continues_in_place, empty_needle_number
 from knitc.resources import stdlib_module
 from knitc.source import UNKNOWN_SPAN, SourceFile, Span
 from knitc.syntax import ast
@@ -586,7 +586,8 @@ class _Stitch:
         if self.bed.loops.get(pos, 0):
             cast.emit(self.ctx, "knit", d, pos, self.s, self.plain)
         else:
-            cast.emit(self.ctx, "tuck", d, pos, self.s, self.gen.opts.numbers.cast_on)
+            cast.emit(self.ctx, "tuck", d, pos, self.s,
+                      empty_needle_number(self.gen, self.s, self.plain))
 
     def tuck(self, dir=_UNSET, needle=_UNSET, carriers=_UNSET) -> None:
         d, pos = self._dir(dir), self._needle(needle, self.pos)
@@ -639,8 +640,9 @@ class _Stitch:
         self._mine(src, "cannot split on")
         self._mine(dst, "cannot split onto")
         bed = self.bed
-        if not bed.loops.get(src, 0):  # no old loop to split: a loop cast onto the needle
-            cast.emit(self.ctx, "tuck", d, src, self.s, self.gen.opts.numbers.cast_on)
+        if not bed.loops.get(src, 0):  # no old loop to split: a loop laid onto the needle
+            cast.emit(self.ctx, "tuck", d, src, self.s,
+                      empty_needle_number(self.gen, self.s, self.plain))
             return
         self._rack(_racking(src, dst))
         bed.prog.stitch_number(self.gen.opts.numbers.increase)

@@ -46,7 +46,7 @@ from knitc.passes import actions
 from knitc.passes import casting as cast
 from knitc.passes.bed import BEDS, Bed, Pos, Unsupported
 from knitc.passes.instructions import CROSSES, MOVES, cables, neighbour, right_left, via_notes
-from knitc.passes.steps import Action, continues_in_place, run_actions
+from knitc.passes.steps import Action, continues_in_place, empty_needle_number, run_actions
 from knitc.passes.transfers import move
 from knitc.source import Span
 
@@ -565,8 +565,8 @@ def _action(gen: _Gen, ctx: cast.Ctx, s: int, d: int, inc: tuple | None) -> Acti
     def knit() -> None:
         if bed.loops.get(pos, 0):
             cast.emit(ctx, "knit", d, pos, s, plain)
-        else:  # nothing to knit through: a loop cast onto the empty needle
-            cast.emit(ctx, "tuck", d, pos, s, numbers.cast_on)
+        else:  # nothing to knit through: a loop laid onto the empty needle
+            cast.emit(ctx, "tuck", d, pos, s, empty_needle_number(gen, s, plain))
 
     def kickback() -> None:
         if bed.loops.get(pos, 0):
@@ -629,7 +629,7 @@ def _purl(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, number: int,
         if bed.loops.get(other, 0):
             cast.emit(ctx, "knit", d, other, s, number)
         else:
-            cast.emit(ctx, "tuck", d, other, s, numbers.cast_on)
+            cast.emit(ctx, "tuck", d, other, s, empty_needle_number(gen, s, number))
 
     def post() -> None:
         bed.prog.stitch_number(numbers.transfer)

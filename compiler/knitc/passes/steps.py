@@ -55,3 +55,12 @@ def continues_in_place(gen, s: int) -> int:
             or gen.pos(kid) != gen.pos(s)):
         return -1
     return kid
+
+
+def empty_needle_number(gen, s: int, plain: int) -> int:
+    """The stitch number of the loop stitch `s` lays onto an empty needle: the cast-on's
+    when the stitch starts its wale (a partial cast-on, a first course with `cast_on:
+    none`), else the course's own `plain` (a yarn-over where a lace move emptied the
+    needle), so a pass keeps one stitch number and its DAT one row. `gen` is code
+    generation's state (`g`, `opts`)."""
+    return gen.opts.numbers.cast_on if int(gen.g.wale_prev[s, 0]) < 0 else plain
