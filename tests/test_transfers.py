@@ -39,7 +39,7 @@ class Problem:
     max_rack: int = 4
     needles: int = 80
     course: dict[int, int] = field(default_factory=dict)
-    """Course of a stitch (default 0); loops of another course are other pieces."""
+    """Course (and node) of a stitch (default 0); loops of another one are other pieces."""
     circular: bool = True
     """Whether the courses are tubes (their loops may rotate around the beds)."""
 
@@ -53,7 +53,7 @@ def make_bed(pb: Problem, carrier_at: float | None = None) -> Bed:
     the independent machine accepts); the carrier is left at `carrier_at` if given."""
     n = max(pb.start.values()) + 1
     course = np.array([pb.course.get(s, 0) for s in range(n)])
-    g = SimpleNamespace(spans=[None], span=np.zeros(n, np.int32), course=course,
+    g = SimpleNamespace(spans=[None], span=np.zeros(n, np.int32), course=course, node=course,
                         course_circular=np.full(course.max() + 1, pb.circular))
     bed = Bed(g, MachineProgram(Machine(needles=pb.needles)), pb.max_rack)  # type: ignore[arg-type]
     bed.prog.inhook((CARRIER,))

@@ -255,7 +255,16 @@ class _Planner:
             if pos[0] in SLIDERS:
                 raise Unsupported(f"a loop waits on slider {pos[0]}{pos[1]}")
         self._free_range(free)
+        self.folded: list[tuple[_Unit, Pos]] = []
+        """Units of a closing fold planned to the facing needle first (`_unfold`)."""
         self._cycle()
+        if not self.ccw and self._unfold():
+            self._cycle()
+            if not self.ccw:
+                for u, goal in self.folded:
+                    u.goal = goal
+                self.folded = []
+                self._cycle()
         self._gauge(gauge)
         self.carriers = {c: [x, a] for c, (x, a) in _carriers(bed).items()}
         self.steps: list[Step] = []
@@ -273,12 +282,22 @@ class _Planner:
             return None
         return int(course[s])
 
+    def _piece(self, s: int) -> int | None:
+        """The node of stitch s: the loops of one node on the bed form one cycle (a slice's
+        ring holds the end of one course and the start of the next)."""
+        node = getattr(self.bed.g, "node", None)
+        if node is None:
+            return self._course(s)
+        if s < 0 or s >= len(node):
+            return None
+        return int(node[s])
+
     def _free_range(self, free: tuple[int, int] | None) -> None:
         """The needles the plan may use: those between the nearest loops of other pieces
-        (loops of the moving loops' courses are part of the cycle, not obstacles)."""
-        courses = {self._course(s) for u in self.units for s in u.stitches} - {None}
+        (loops of the moving loops' nodes are part of the cycle, not obstacles)."""
+        pieces = {self._piece(s) for u in self.units for s in u.stitches} - {None}
         self.member = {pos for pos, s in self.fixed.items()
-                       if s >= 0 and self._course(s) in courses}
+                       if s >= 0 and self._piece(s) in pieces}
         ends = [n for u in self.units for n in (u.pos[1], u.goal[1])]
         lo, hi = min(ends), max(ends)
         left = [p[1] for p in self.fixed if p not in self.member and p[1] < lo]
@@ -321,6 +340,29 @@ class _Planner:
         for u, roll in rolls:
             if u is not None:
                 u.roll = roll
+
+    def _unfold(self) -> bool:
+        """A tube closing onto one bed (a collapsed end: front stitch k and back stitch k
+        stacked on needle k) has no winding: its target folds the cycle flat. Plan it as the
+        ring it folds, instead: the loops of the tube's other side first go to the needles
+        facing their goals, then one transfer at racking 0 stacks them (`run`). The sides
+        are the design's (`StitchGraph.side`), which survive any rotation of the layout.
+        Returns whether some goal was unfolded (the caller checks the winding again)."""
+        side = getattr(self.bed.g, "side", None)
+        beds = {u.goal[0] for u in self.units} | {p[0] for p in self.member}
+        if side is None or len(beds) != 1:
+            return False
+        (bed,) = beds
+        own = 0 if bed == "f" else 1
+        sides = {int(side[s]) for u in self.units for s in u.stitches if s >= 0}
+        if len(sides) != 2:
+            return False
+        for u in self.units:
+            if all(s >= 0 and int(side[s]) != own for s in u.stitches):
+                facing = (_OTHER[bed], u.goal[1])
+                self.folded.append((u, u.goal))
+                u.goal = facing
+        return bool(self.folded)
 
     def _closed(self) -> bool:
         circular = getattr(self.bed.g, "course_circular", None)
@@ -383,6 +425,10 @@ class _Planner:
         limit += 4 * len(self.units)
         for _ in range(limit):
             if all(u.home for u in self.units):
+                if self.folded:  # the ring is laid out: fold it onto its bed
+                    self.commit([(u, u.pos, goal, 0) for u, goal in self.folded])
+                    for u, goal in self.folded:
+                        u.goal = goal
                 return self.steps
             moved = self.rotate()
             moved = self.shift() or moved
