@@ -71,13 +71,21 @@ def reference_slices(g: StitchGraph, t: Trace, flat: int, tube: int) -> list[dic
     fold = [len(kids[s]) == 2 and g.side[kids[s][0]] != g.side[kids[s][1]]
             for s in range(g.n_stitches)]
 
+    holding = [-1]  # the course the slice being opened continues: its ends stay on the bed
+
+    def held(s: int) -> bool:
+        return not kids[s] and finished(s) and int(g.course[s]) == holding[0]
+
     def derive(cyc: list[list[int]], fresh: bool = False) -> list[list[int]]:
         out, round_the_back = [], []
         for s, state in cyc:
             if state == E or (state == A and not finished(s)):
                 if not finished(s):
                     out.append([s, E])
-            elif state == S or (dec[s] if fresh else waits[s]):
+            elif state == S and not kids[s]:
+                if held(s):
+                    out.append([s, S])
+            elif state == S or (dec[s] if fresh else waits[s]) or held(s):
                 out.append([s, S])
             elif fold[s]:  # one child in place, the other round the back of the ring
                 out += [[k, E] for k in kids[s][:1] if not finished(k)]
@@ -131,6 +139,8 @@ def reference_slices(g: StitchGraph, t: Trace, flat: int, tube: int) -> list[dic
             continue
         node = int(g.node[s])
         new = None
+        same = v > 0 and int(g.course[int(t.stitch[v - 1])]) == int(g.course[s])
+        holding[0] = int(g.course[s]) if same else -1
         if node in last_of_node:
             src = last_of_node[node]
             cand = opened(derive([list(e) for e in out[src]["cycle"]]), v, src)

@@ -72,21 +72,24 @@ def test_tube_slices_are_half_rings():
         "6a 7a 8a 9e 10e 11e",
         "12e 13e 14e 9a 10a 11a",
         "12a 13a 14a 15e 16e 17e",
-        "15a 16a 17a",  # the front is cast off: only the back is left on the bed
+        # the last course's front half ends, but its loops wait on the bed, SUSPENDED,
+        # for the course's cast-off, which comes once its back half is knitted
+        "12s 13s 14s 15a 16a 17a",
     ]
     assert s.fresh.tolist() == [True] + [False] * 5
     assert s.dir.tolist() == [1, -1] * 3
-    assert s.circular.tolist() == [True] * 5 + [False]
-    assert s.limit.tolist() == [4] * 5 + [2]
+    assert s.circular.tolist() == [True] * 6  # the last round stays a ring
+    assert s.limit.tolist() == [4] * 6
     assert s.cast_on.tolist() == [True, True, False, False, False, False]
     assert s.cast_off.tolist() == [False, False, False, False, True, True]
 
 
 def test_decrease_suspends_then_merges():
     # 8 -> 4: every stitch of course 0 decreases. Two merges fill slice 1 (limit 2), so
-    # stitches 0-3 stay SUSPENDED on their needles until slice 2 merges them.
+    # stitches 0-3 stay SUSPENDED on their needles until slice 2 merges them; there 8 and
+    # 9, which end, wait too, for the cast-off at the end of their course.
     g, t, s = sliced("sheet s { length: 2  width: [0: 8, 1: 4] }")
-    assert cycles(s) == ["0a 1a 2a 3a 4a 5a 6a 7a", "0s 1s 2s 3s 9a 8a", "11a 10a"]
+    assert cycles(s) == ["0a 1a 2a 3a 4a 5a 6a 7a", "0s 1s 2s 3s 9a 8a", "11a 10a 9s 8s"]
     assert s.shaping.tolist() == [0, 2, 2]
     dec = sl.decreasing(g)
     st, state = s.cycle(1)
@@ -259,8 +262,8 @@ def test_emit_slices_json(tmp_path, capsys):
     assert capsys.readouterr().out == out  # deterministic
     data = json.loads(out)
     assert list(data) == ["stats", "slices"]
-    assert data["stats"] == {"slices": 6, "fresh": 1, "entries": 33, "expected": 15,
-                             "active": 18, "suspended": 0, "shaping": 0}
+    assert data["stats"] == {"slices": 6, "fresh": 1, "entries": 36, "expected": 15,
+                             "active": 18, "suspended": 3, "shaping": 0}
     first = data["slices"][0]
     assert list(first)[:2] == ["id", "node"]
     assert first["cycle"] == [[0, "a"], [1, "a"], [2, "a"], [3, "e"], [4, "e"], [5, "e"]]

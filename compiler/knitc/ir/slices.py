@@ -8,8 +8,9 @@ next node's first course), each in one of three states:
 - EXPECTED: a stitch whose previous wales' loops are on the bed, waiting to be knitted;
 - ACTIVE: knitted in this slice (exactly the slice's visits);
 - SUSPENDED: a stitch already knitted whose loop stays on its needle, held: a decreasing
-  stitch until the stitch it merges into is knitted, and a stitch whose next wales are in
-  another gauge until the slice of that gauge takes it (`waiting`).
+  stitch until the stitch it merges into is knitted, a stitch whose next wales are in
+  another gauge until the slice of that gauge takes it (`waiting`), and a stitch that ends
+  until its course is cast off (`derive`).
 
 Slices are stored as parallel numpy arrays (one row per slice) plus one flat array of
 cycle entries (`stitch`, `state`), where slice k owns entries `start[k] : start[k] +
@@ -211,7 +212,8 @@ def course_cycle(g: StitchGraph, c: int, ccw: np.ndarray) -> np.ndarray:
 
 
 def derive(kids: np.ndarray, dec: np.ndarray, st: np.ndarray, state: np.ndarray,
-           done: np.ndarray, passes: int, fold: np.ndarray | None = None
+           done: np.ndarray, passes: int, fold: np.ndarray | None = None,
+           course: np.ndarray | None = None, holding: int = -1
            ) -> tuple[np.ndarray, np.ndarray]:
     """The cycle derived from (st, state), thesis ch. 6.7.1 "Slice Derivation":
     EXPECTED entries stay; decreasing stitches, ACTIVE or SUSPENDED, become SUSPENDED;
@@ -222,13 +224,21 @@ def derive(kids: np.ndarray, dec: np.ndarray, st: np.ndarray, state: np.ndarray,
     by another region of an interleaved trace) is dropped. Entries of any other state value
     are dropped (the pass's scratch marks). A folding stitch (`fold`, see `folds`) keeps its
     first child in place and sends the second to the end of the cycle, in reverse order of
-    the parents: a flat course opening into a tube becomes a ring, front then back."""
+    the parents: a flat course opening into a tube becomes a ring, front then back.
+
+    A finished stitch with no next wale of course `holding` (`course[s]`: the course whose
+    visits the new slice continues) stays SUSPENDED: its loop is on its needle until the
+    course is cast off, at its end, so later slices of the course must leave it room; in a
+    slice of another course it is gone."""
     fin = done[st] >= passes
     act = state == ACTIVE
-    stay = ((state == EXPECTED) & ~fin) | (act & ~fin)
-    susp = (state == SUSPENDED) | (act & fin & dec[st])
-    repl = act & fin & ~dec[st]
     k = kids[st]
+    ending = (k[:, 0] < 0) & (k[:, 1] < 0)
+    held = np.zeros(st.shape[0], bool) if course is None else \
+        ending & fin & (course[st] == holding)
+    stay = ((state == EXPECTED) & ~fin) | (act & ~fin)
+    susp = ((state == SUSPENDED) & (~ending | held)) | (act & fin & (dec[st] | held))
+    repl = act & fin & ~dec[st] & ~held
     cand = np.stack([np.where(repl, k[:, 0], st), np.where(repl, k[:, 1], -1)], 1)
     cstate = np.stack([np.where(susp, SUSPENDED, EXPECTED),
                        np.full(st.shape[0], EXPECTED)], 1).astype(np.uint8)
@@ -246,8 +256,8 @@ def derive(kids: np.ndarray, dec: np.ndarray, st: np.ndarray, state: np.ndarray,
 
 
 def fresh_cycle(g: StitchGraph, ccw: np.ndarray, kids: np.ndarray, dec: np.ndarray, s: int,
-                done: np.ndarray, passes: int, fold: np.ndarray | None = None
-                ) -> tuple[np.ndarray, np.ndarray]:
+                done: np.ndarray, passes: int, fold: np.ndarray | None = None,
+                holding: int = -1) -> tuple[np.ndarray, np.ndarray]:
     """The cycle a fresh slice opened on stitch s starts from: the course of s (for a short
     row or continuity stitch, the course of its previous wale: those are not rows of the
     bed) as the yarn finds it, i.e. `derive` of that course with every stitch ACTIVE.
@@ -259,7 +269,14 @@ def fresh_cycle(g: StitchGraph, ccw: np.ndarray, kids: np.ndarray, dec: np.ndarr
         c = int(g.course[p])
     st = course_cycle(g, c, ccw)
     return derive(kids, dec, st, np.full(st.shape[0], ACTIVE, np.uint8), done, passes,
-                  fold)
+                  fold, g.course, holding)
+
+
+def holding_course(g: StitchGraph, t: Trace, v: int) -> int:
+    """The course a slice opening at visit `v` continues (its ending loops are still on the
+    needles, `derive`), or -1 when visit v starts a run of its course."""
+    c = int(g.course[t.stitch[v]])
+    return c if v > 0 and int(g.course[t.stitch[v - 1]]) == c else -1
 
 
 # ---- verifier ---------------------------------------------------------------------------------
@@ -364,7 +381,9 @@ def _verify_cycles(g: StitchGraph, t: Trace, sl: Slices) -> list[str]:
         if np.any(done[st[state == EXPECTED]] >= t.passes):
             return [f"{where} expects a stitch that is already finished"]
         sus = st[state == SUSPENDED]
-        if np.any((done[sus] < t.passes) | ~dec[sus]):
+        holding = holding_course(g, t, int(sl.visit[k]))
+        ending = (g.wale_next[sus] < 0).all(1) & (g.course[sus] == holding)
+        if np.any((done[sus] < t.passes) | ~(dec[sus] | ending)):
             return [f"{where} suspends a stitch that is not a finished waiting stitch"]
         src = int(sl.derived_from[k])
         if sl.fresh[k] != (src < 0):
@@ -372,11 +391,11 @@ def _verify_cycles(g: StitchGraph, t: Trace, sl: Slices) -> list[str]:
         if src >= 0:
             if src != last_of_node.get(int(sl.node[k]), -1):
                 return [f"{where} is not derived from the last slice of its node"]
-            base = derive(kids, dec, *sl.cycle(src), done, t.passes, fold)
+            base = derive(kids, dec, *sl.cycle(src), done, t.passes, fold, g.course, holding)
             what = f"the cycle derived from slice {src}"
         else:
             base = fresh_cycle(g, ccw, kids, merging, int(t.stitch[sl.visit[k]]), done,
-                               t.passes, fold)
+                               t.passes, fold, holding)
             what = "the fresh cycle of its first stitch"
         problem = _check_cycle(g, *base, st, state)
         if problem:

@@ -184,17 +184,18 @@ class _Slicer:
         self._close()
         node = int(self.node_v[i])
         src = self.last_of_node.get(node, -1)
+        holding = sl.holding_course(self.g, self.t, i)
         if src >= 0:
             st, state = self.cycles[src]
             dst, dstate = sl.derive(self.kids, self.dec, st, state, self.done, self.t.passes,
-                                      self.fold)
+                                    self.fold, self.g.course, holding)
             self._open(i, dst, dstate, src)
             if self._activate(i) or self._merge(i):
                 return
             self._discard()
         self._open(i, *sl.fresh_cycle(self.g, self.ccw, self.kids, self.merging,
-                                      int(self.vs[i]),
-                                      self.done, self.t.passes, self.fold), -1)
+                                      int(self.vs[i]), self.done, self.t.passes, self.fold,
+                                      holding), -1)
         if not (self._activate(i) or self._merge(i)):
             raise AssertionError(f"slicing: visit {i} is not in its own fresh cycle")
 
