@@ -357,6 +357,54 @@ def knit_positions(sched: Schedule, n_stitches: int) -> tuple[np.ndarray, np.nda
     return bed, needle
 
 
+def carriage_directions(sched: Schedule, stitch: np.ndarray, yarn: np.ndarray
+                        ) -> np.ndarray:
+    """The carriage direction (+1 rightward) at each trace visit (`stitch`, `yarn`) on the
+    needles the schedule knits it on. The trace's own directions are the design frame's; a
+    layout may lay a ring rotated or a row mirrored, and the carriage follows the needles.
+
+    Along a bed, a visit takes the way the yarn came to it from the previous visit. A visit
+    on the other bed (a fold) takes the way along its new bed to the next visit, so each
+    bed of a tube is knitted in one pass; but where that would send the carriage back over
+    the needle it just left in the same direction (a zigzag across the beds), it takes the
+    way the yarn came instead. Positions are front-bed needles at racking 0 (back needle k
+    faces front needle k); a yarn that never moves goes rightward."""
+    n = stitch.shape[0]
+    out = np.ones(n, np.int8)
+    if n == 0:
+        return out
+    bed, needle = knit_positions(sched, int(stitch.max()) + 1)
+    order = np.lexsort((np.arange(n), yarn))
+    st, yn = stitch[order], yarn[order]
+    x, b = needle[st].astype(np.int64), bed[st]
+    ar = np.arange(n)
+    same_yarn = np.r_[False, yn[1:] == yn[:-1]]
+    came = np.zeros(n, np.int64)  # the way from the previous visit of the yarn
+    came[1:] = np.sign(x[1:] - x[:-1])
+    came[~same_yarn] = 0
+    along = same_yarn & np.r_[False, b[1:] == b[:-1]]
+    step = np.where(along, came, 0)
+    ends = np.r_[~same_yarn[1:], True]
+    starts = ~same_yarn
+    group_end = np.minimum.accumulate(np.where(ends, ar, n)[::-1])[::-1]
+    group_start = np.maximum.accumulate(np.where(starts, ar, 0))
+    nxt = np.minimum.accumulate(np.where(step != 0, ar, n)[::-1])[::-1]
+    prv = np.maximum.accumulate(np.where(step != 0, ar, -1))
+    from_next = np.where(nxt <= group_end, step[np.minimum(nxt, n - 1)], 0)
+    from_prev = np.where(prv >= group_start, step[np.maximum(prv, 0)], 0)
+    d = np.where(step != 0, step, np.where(from_next != 0, from_next,
+                                           np.where(from_prev != 0, from_prev, 1)))
+    after = np.r_[step[1:], 0] * ~ends  # the next move, when it is along this visit's bed
+    for i in np.flatnonzero(~along & same_yarn).tolist():  # the folds, in order
+        nm, arr = int(after[i]), int(came[i])
+        if nm and (arr == 0 or nm == arr or int(d[i - 1]) != nm):
+            d[i] = nm
+        elif arr:
+            d[i] = arr
+    out[order] = d.astype(np.int8)
+    return out
+
+
 # ---- verifier ---------------------------------------------------------------------------------
 
 def verify(g: StitchGraph, sched: Schedule) -> list[str]:

@@ -81,21 +81,10 @@ def near(g: StitchGraph, a: int, b: int) -> bool:
 
 
 def carriage_dirs(g: StitchGraph, stitch: np.ndarray, yarn: np.ndarray) -> np.ndarray:
-    """The carriage direction at each visit (+1 towards higher needles) in the stitch
-    graph's own frame (`dirs_along`)."""
-    return dirs_along(g.side, g.needle, stitch, yarn)
-
-
-def dirs_along(bed: np.ndarray, needle: np.ndarray, stitch: np.ndarray, yarn: np.ndarray
-               ) -> np.ndarray:
-    """The carriage direction at each visit (+1 towards higher needles), with each stitch on
-    `bed[stitch]`, `needle[stitch]`: the step that brought the yarn to it from its previous
-    visit on the same bed. A visit reached across beds (or a yarn's first) takes the
-    direction of the yarn's next step on one bed; a yarn that never steps along a bed (a
-    ring of one stitch per bed) follows its steps across the beds where they move along
-    them, and else goes rightward. Code generation calls it with the schedule's needles: a
-    layout may lay a ring rotated or a row mirrored, and the carriage follows the needles,
-    not the design."""
+    """The carriage direction at each visit (+1 towards higher needles): the step that
+    brought the yarn to it from its previous visit on the same bed. A visit reached across
+    beds (or a yarn's first) takes the direction of the yarn's next step on one bed, and a
+    yarn that never steps along a bed goes rightward."""
     n = stitch.shape[0]
     d = np.zeros(n, np.int8)
     if n == 0:
@@ -104,8 +93,8 @@ def dirs_along(bed: np.ndarray, needle: np.ndarray, stitch: np.ndarray, yarn: np
     st, yn = stitch[order], yarn[order]
     ar = np.arange(n)
     step = np.zeros(n, np.int64)
-    same = (yn[1:] == yn[:-1]) & (bed[st[1:]] == bed[st[:-1]])
-    dn = needle[st[1:]].astype(np.int64) - needle[st[:-1]]
+    same = (yn[1:] == yn[:-1]) & (g.side[st[1:]] == g.side[st[:-1]])
+    dn = g.needle[st[1:]].astype(np.int64) - g.needle[st[:-1]]
     step[1:] = np.where(same, np.sign(dn), 0)
     ends = np.r_[yn[1:] != yn[:-1], True]
     group_end = np.minimum.accumulate(np.where(ends, ar, n)[::-1])[::-1]
@@ -115,12 +104,8 @@ def dirs_along(bed: np.ndarray, needle: np.ndarray, stitch: np.ndarray, yarn: np
     prv = np.maximum.accumulate(np.where(step != 0, ar, -1))
     from_next = np.where(nxt <= group_end, step[np.minimum(nxt, n - 1)], 0)
     from_prev = np.where(prv >= group_start, step[np.maximum(prv, 0)], 0)
-    across = np.zeros(n, np.int64)  # steps between the beds that also move along them
-    across[1:] = np.where(yn[1:] == yn[:-1], np.sign(dn), 0)
-    across_next = np.r_[across[1:], 0] * ~ends
-    fallback = np.where(across != 0, across, np.where(across_next != 0, across_next, 1))
     out = np.where(step != 0, step, np.where(from_next != 0, from_next,
-                                             np.where(from_prev != 0, from_prev, fallback)))
+                                             np.where(from_prev != 0, from_prev, 1)))
     d[order] = out.astype(np.int8)
     return d
 

@@ -154,7 +154,7 @@ class _Gen:
 
     def __post_init__(self) -> None:
         self.knit_bed, self.knit_needle = sc.knit_positions(self.sched, self.g.n_stitches)
-        self.dirs = tr.dirs_along(self.knit_bed, self.knit_needle, self.t.stitch, self.t.yarn)
+        self.dirs = sc.carriage_directions(self.sched, self.t.stitch, self.t.yarn)
         g = self.g
         self.carrying = np.zeros(g.n_courses, bool)
         self.carrying[g.course[np.isin(g.instr, CARRIED)]] = True
