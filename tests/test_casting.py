@@ -17,6 +17,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from fabric import assert_knits_as_designed
 from knitc.backends.knitout import write_knitout
 from knitc.driver import Result, compile_source
 from knitc.ir.machine import Op
@@ -25,7 +26,6 @@ from knitc.passes import casting as cast
 from knitc.passes.bed import Bed
 from knitc.passes.codegen import CodegenOptions, options_from_skeleton
 from knitc.passes.simulate import simulate
-from fabric import assert_knits_as_designed
 from oracle import assert_clean, run_oracle_on_text
 
 SHAPES = ("flat", "tube")
