@@ -20,8 +20,10 @@ the loops that stand for its designed wale predecessors. The exceptions, each na
   knits through them or misses and lets them stand for it;
 - **closed bind-off**: a bind-off chain that ends next to a live stitch is closed onto it,
   so that stitch's child also pulls the chain's last loop;
-- **miss** (M) forms no loop: the loops below stand for it; **tuck** (T) adds a loop that
-  the next knit pulls through together with the loops below;
+- **miss** (M, or an action that misses) forms no loop: the loops below stand for it;
+  **tuck** (T, or an action's tuck) adds a loop that the next knit pulls through together
+  with the loops below (the next stitch's own check holds it to that); a **split action**
+  keeps the loops it splits on the needle too, with its new loop;
 - **carried loops**: after a course with lace moves or cables the loops go where the
   instruction sends them (`instructions.neighbour`, `instructions.cables`), so a needle a
   loop left makes a yarn-over (a tuck on an empty needle) and a needle it joined knits both;
@@ -153,17 +155,25 @@ def expect(result: Result, fab: Fabric) -> Expected:
     assert g is not None and prog is not None
     by_op = loops_by_op(prog, fab)
     loop: dict[int, int] = {}
+    tucked: set[int] = set()  # stitches whose own loop is a tuck
+    splits: set[int] = set()  # stitches whose own loop is a split
+    missed: set[int] = set()  # stitches whose action misses their needle
     cast_on: set[int] = set()
     cast_off: set[int] = set()
     for k, op in enumerate(prog.ops):
+        if op.kind == "miss" and op.phase == "action" and op.stitch >= 0:
+            missed.add(op.stitch)
         if op.forms_loop and k in by_op:
             if op.phase == "action" and op.stitch >= 0:
                 loop[op.stitch] = by_op[k][-1]
+                (tucked.add if op.kind == "tuck" else tucked.discard)(op.stitch)
+                (splits.add if op.kind == "split" else splits.discard)(op.stitch)
             elif op.phase == "cast_on":
                 cast_on.update(by_op[k])
             elif op.phase == "cast_off":
                 cast_off.update(by_op[k])
     n = g.n_stitches
+    plain_ok = {d.span for d in result.diagnostics if d.code == "W603" and d.span is not None}
     assert result.schedule is not None
     home = sc.knit_positions(result.schedule, n)[0]
     stands: list[frozenset[int]] = [frozenset()] * n
@@ -177,8 +187,9 @@ def expect(result: Result, fab: Fabric) -> Expected:
             below = frozenset().union(*(stands[p] for p in parents))
             lp = loop.get(s)
             instr = int(g.instr[s])
+            user = int(g.action[s]) >= 0
             if lp is None:  # nothing formed: what is on the needle stands for the stitch
-                if instr == M or _split_sibling(g, s, loop, fab):
+                if instr == M or (user and s in missed) or _split_sibling(g, s, loop, fab):
                     stands[s] = below
                     out.realized += [(p, s) for p in parents]
                 elif below:
@@ -189,18 +200,26 @@ def expect(result: Result, fab: Fabric) -> Expected:
                     bad.append(Mismatch("loop", s, f"{describe(g, s)} has no loop at all"))
                 continue
             got = frozenset(fab.parents[lp])
-            stands[s] = frozenset({lp}) | (below if instr == T else frozenset())
-            if instr == T and not got:
+            # a tuck (T, or an action's tuck) adds its loop to those below: the next knit on
+            # the needle pulls through both, which that stitch's own check sees
+            tuck = instr == T or (user and s in tucked)
+            if tuck and not got and not _kickback(g, s, parents, loop, stands, fab):
+                stands[s] = frozenset({lp}) | below
                 out.realized += [(p, s) for p in parents]
                 continue
+            stands[s] = frozenset({lp})
             if not parents:
                 if got - cast_on:
                     bad.append(Mismatch("parents", s, f"{describe(g, s)} starts the fabric but "
                                         f"was pulled through loops {_names(g, fab, got)}"))
+                elif user and s in splits:  # a split action keeps the cast-on loop it splits
+                    stands[s] = stands[s] | got
                 continue
             if got == below:
                 out.realized += [(p, s) for p in parents]
-                _check_pull(g, fab, s, lp, bool(home[s] == 0), bad)
+                _check_pull(g, fab, s, lp, bool(home[s] == 0), plain_ok, bad)
+                if user and s in splits:  # a split action keeps the old loop, as a tuck does
+                    stands[s] = stands[s] | got
                 continue
             if not got and _kickback(g, s, parents, loop, stands, fab):
                 out.kickbacks.add(s)
@@ -209,7 +228,7 @@ def expect(result: Result, fab: Fabric) -> Expected:
                 # a bind-off closed onto its live neighbour: the chain's last loop is knitted
                 # in with the neighbour's next stitch
                 out.realized += [(p, s) for p in parents]
-                _check_pull(g, fab, s, lp, bool(home[s] == 0), bad)
+                _check_pull(g, fab, s, lp, bool(home[s] == 0), plain_ok, bad)
                 continue
             hit = [p for p in parents if stands[p] & got]
             out.realized += [(p, s) for p in hit]
@@ -253,13 +272,19 @@ def _kickback(g: StitchGraph, s: int, parents: list[int], loop: dict[int, int],
 
 
 def _check_pull(g: StitchGraph, fab: Fabric, s: int, lp: int, front: bool,
-                bad: list[Mismatch]) -> None:
+                plain_ok: set, bad: list[Mismatch]) -> None:
     """Knit or purl as designed. The face of the fabric is the side away from the other bed,
     so a knit on the bed its layout puts it on (`front`) pulls back to front on the front
-    bed and front to back on the back bed; a reversed stitch the other way."""
+    bed and front to back on the back bed; a reversed stitch the other way, unless knitc
+    warned that it knits it plain (W603 at its pattern statement, `plain_ok`)."""
     if int(g.action[s]) >= 0:  # a user action decides for itself how it pulls
         return
     purl = int(g.instr[s]) in REVERSED
+    if purl and g.origin is not None and int(g.origin[s]) >= 0 \
+            and g.spans[int(g.origin[s])] in plain_ok:
+        purl = None  # either way
+    if purl is None:
+        return
     want = BACK_TO_FRONT if front != purl else 1 - BACK_TO_FRONT
     if any(p != want for p in fab.pulls[lp]):
         what = "a purl" if purl else "a knit"

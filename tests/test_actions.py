@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from knitc.backends.knitout import write_knitout
+from fabric import assert_knits_as_designed
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source
 from knitc.ir.stitch_graph import INSTRUCTIONS
@@ -19,7 +19,6 @@ from knitc.passes import actions
 from knitc.passes.pattern import apply_patterns
 from knitc.passes.query import QueryEnv, coords, evaluate_query
 from knitc.passes.shape import build_stitch_graph
-from oracle import assert_clean, run_oracle_on_text
 
 BUILTINS = ("knit", "purl", "purl_flat", "tuck", "miss", "kickback", "split")
 SHEET = "sheet s {{ length: 7  width: 8 }}\npattern s {{ use {a} where {q} }}\n"
@@ -89,7 +88,7 @@ def made_by(r, s: int, want: str) -> None:
 # ---- every built-in action, on a sheet and a half-gauge tube -------------------------------------
 
 def test_builtin_actions_make_their_stitches_and_run_clean_on_the_machine():
-    texts = []
+    texts: list = []
     for a in BUILTINS:
         for template in (SHEET, TUBE):
             r = build(design(template, a))
@@ -100,9 +99,8 @@ def test_builtin_actions_make_their_stitches_and_run_clean_on_the_machine():
                 assert selected(r)
                 for s in selected(r):
                     made_by(r, s, a)
-            texts.append(write_knitout(r.program))
-    for report in run_oracle_on_text(texts):
-        assert_clean(report)
+            texts.append(r)
+    assert_knits_as_designed(texts)
 
 
 @pytest.mark.parametrize("machine", ["", "machine { cast_on: none }\n",
@@ -123,9 +121,8 @@ def test_actions_on_the_first_course_knit_through_the_cast_on(machine):
                     assert "tuck" in kinds and "knit" not in kinds
                 else:
                     assert {"purl": "xfer", "split": "split", "kickback": "miss"}[a] in kinds
-            texts.append(write_knitout(r.program))
-    for report in run_oracle_on_text(texts):
-        assert_clean(report)
+            texts.append(r)
+    assert_knits_as_designed(texts)
 
 
 def test_builtins_need_no_import_and_a_design_may_redefine_them():
@@ -189,8 +186,7 @@ def test_a_user_action_emits_exactly_its_steps():
     numbers = [o.value for o in ops[:at[2]] if o.kind == "stitch_number"]
     assert numbers[-1] == 5  # the knit: the plain stitch number
     assert [o.value for o in ops[:at[0]] if o.kind == "stitch_number"][-1] == 0  # transfers
-    [report] = run_oracle_on_text([write_knitout(r.program)])
-    assert_clean(report)
+    assert_knits_as_designed([r])
 
 
 def test_the_context_gives_position_stitch_fields_and_needles():
@@ -243,8 +239,7 @@ pattern s { use hop where select(1, 1) }
     rack = [o.value for o in ops[:ops.index(xf[0])] if o.kind == "rack"]
     assert rack and rack[-1] == -1  # front n faces back n + 1 at racking -1
     assert ops[-1].kind != "rack" and r.program.racking == 0  # and the machine unracks
-    [report] = run_oracle_on_text([write_knitout(r.program)])
-    assert_clean(report)
+    assert_knits_as_designed([r])
 
 
 # ---- split_by_side ----------------------------------------------------------------------------
@@ -294,8 +289,7 @@ def test_split_by_side_runs_each_bed_as_its_own_pass(split, monkeypatch):
             pre = [where[s][0] for s in users]  # each stitch's transfer to the other bed
             assert max(pre) < first_knit
     assert mixed >= 3
-    [report] = run_oracle_on_text([write_knitout(r.program)])
-    assert_clean(report)
+    assert_knits_as_designed([r])
 
 
 # ---- transfer_back ----------------------------------------------------------------------------
@@ -325,8 +319,7 @@ def test_transfer_back_false_skips_the_post_step_while_the_wale_goes_on(monkeypa
     xfers = [o for o in r.program if o.kind == "xfer" and 0 <= o.stitch
              and int(g.course[o.stitch]) < last and o.stitch in made]
     assert len(xfers) == 1
-    [report] = run_oracle_on_text([write_knitout(r.program)])
-    assert_clean(report)
+    assert_knits_as_designed([r])
 
 
 # ---- `use knit` and what actions never change ---------------------------------------------------
@@ -445,5 +438,4 @@ def test_actions_on_increases_warn_at_the_use():
     r = build(src)
     [w] = [d for d in r.diagnostics if d.code == "W720"]
     assert w.span.line == 2 and "increase" in w.message
-    [report] = run_oracle_on_text([write_knitout(r.program)])
-    assert_clean(report)
+    assert_knits_as_designed([r])
