@@ -199,8 +199,16 @@ def folds(g: StitchGraph, kids: np.ndarray) -> np.ndarray:
 
 def course_cycle(g: StitchGraph, c: int, ccw: np.ndarray) -> np.ndarray:
     """The stitches of course c in cycle order: counter-clockwise, and a ring starting at
-    its leftmost front stitch (front left to right, then back right to left)."""
+    its leftmost front stitch (front left to right, then back right to left). A flat course
+    on both beds (a zigzag closing, whose yarn alternates front and back needles) lies on
+    the bed as the ring it closes, so its cycle is that ring's order."""
     ids = g.course_ids(c)
+    sides = g.side[ids]
+    if not g.course_circular[c] and 0 < int(sides.sum()) < ids.size \
+            and np.count_nonzero(np.diff(sides)) > 1:
+        front, back = ids[sides == 0], ids[sides == 1]
+        return np.concatenate([front[np.argsort(g.needle[front], kind="stable")],
+                               back[np.argsort(-g.needle[back], kind="stable")]])
     if not ccw[c]:
         ids = ids[::-1]
     if g.course_circular[c]:

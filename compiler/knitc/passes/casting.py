@@ -320,7 +320,14 @@ def cast_off_run(ctx: Ctx, kind: str, run: Sequence[int], closing: int, last_dir
         if kind != "reverse" and dst[0] == src[0]:
             emit(ctx, "miss", -kd, src, s)  # kickback: the carrier leaves the transfer's way
         bed.prog.stitch_number(ctx.numbers.transfer)
-        move(bed, [(s, src, dst)])
+        r = dst[1] - src[1] if dst[0] == "f" else src[1] - dst[1]  # b(k) faces f(k + r)
+        if src[0] != dst[0] and abs(r) <= bed.max_rack:
+            # the next loop faces it across the beds (a zigzag edge): one transfer
+            bed.set_rack(r)
+            bed.xfer(src, dst, s)
+            bed.set_rack(0)
+        else:
+            move(bed, [(s, src, dst)])
         prev = src
     _drop_all(bed, tucks, chain[-1] if chain else -1)
     return -1, d

@@ -1,0 +1,83 @@
+"""Designs that knitc once could not compile (E602: transfers it could not plan) or knitted
+into the wrong fabric compile, and the independent machine knits them into the designed
+fabric (`tests/fabric.py`).
+
+Planning: a crown that closes after a uniform decrease (it failed over some lengths and not
+others, as the ring's fold drifted away from the closing pairs), a leg joined to a wider
+foot (a spread), a tank top's front and back joined at the shoulder straps (the neckline's
+ending loops, not yet cast off, stood where the second strap was laid out), and tubes closed
+by zigzag courses at either end.
+
+Fabric: a flat piece closed into a tube (bound mirrored, its right end continuing at the
+tube's front left), a tube opened into one flat piece by an unfolded split (its back half
+was left unattached), and a closed tube start cast on by a precast (the precast loops on the
+back stood in for the split loops that close the end).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from fabric import assert_knits_as_designed
+from knitc.driver import compile_source
+
+CROWNS = {f"crown-{w}x{n}": f"tube crown {{ length: {n}  width: [0: {w}, 1: 4]  shaper: uniform }}\n"
+          "crown.top closed\n" for w in (24, 30, 40) for n in (4, 5, 6, 7, 8)}
+LEG_FOOT = """\
+tube leg  { length: 40  width: 10 }
+tube foot { length: 50  width: 12 }
+leg.top -> foot.bottom
+start leg.bottom
+foot.top closed
+"""
+TANK = """\
+machine { racking: 4 }
+sheet front { type: flat  length: 20  width: 30 }
+split fs { degree: 2  alignment: uniform }
+sheet fl { type: flat  length: 10  width: 8 }
+sheet fr { type: flat  length: 10  width: 8 }
+sheet back { type: flat  length: 20  width: 30 }
+split bs { degree: 2  alignment: uniform }
+sheet bl { type: flat  length: 10  width: 8 }
+sheet br { type: flat  length: 10  width: 8 }
+front.top -> fs.base
+fs.branches[0] -> fl.bottom
+fs.branches[1] -> fr.bottom
+back.top -> bs.base
+bs.branches[0] -> bl.bottom
+bs.branches[1] -> br.bottom
+fl.top -> bl.top
+fr.top -> br.top
+start front.bottom
+"""
+ZIGZAGS = {f"zigzag-{mode}-{end}": f"tube t {{ length: 6  width: 4 }}\nt.{end} closed({mode})\n"
+           for mode in ("zigzag", "zigzagreturn") for end in ("bottom", "top")}
+"""Tubes closed by a course alternating front and back needles: its cycle is the ring it
+closes (its yarn order zigzags), and the bind-off of one moves each loop straight across."""
+FLAT_INTO_TUBE = "sheet a { type: flat  length: 4  width: 8 }\ntube b { length: 4  width: 4 }\n" \
+    "a.top -> b.bottom\n"
+TUBE_OPENED = ("tube a { length: 4  width: 4 }\nsplit s { degree: 1  folded: false }\n"
+               "sheet f { type: flat  length: 3  width: 8 }\na.top -> s.base\n"
+               "s.branches[0] -> f.bottom\n")
+PRECAST_CLOSED = "tube t { length: 6  width: 6 }\nt.bottom closed { cast_on: precast }\n"
+DESIGNS = {**CROWNS, **ZIGZAGS, "leg-into-wider-foot": LEG_FOOT, "tank-shoulders": TANK,
+           "flat-into-tube": FLAT_INTO_TUBE, "tube-opened-flat": TUBE_OPENED,
+           "tube-opened-flat-knitted-back": TUBE_OPENED.replace("a.top", "a.bottom"),
+           "closed-start-precast": PRECAST_CLOSED,
+           "closed-start-precast-half": "machine { gauge: half }\n" + PRECAST_CLOSED}
+
+
+def build(src: str):
+    r = compile_source(src, "t.knit", until="machine")
+    assert [d.code for d in r.diagnostics if d.is_error] == [], r.diagnostics.render()
+    return r
+
+
+@pytest.mark.parametrize("name", sorted(DESIGNS))
+def test_it_compiles(name):
+    assert build(DESIGNS[name]).program is not None
+
+
+def test_they_knit_their_design_on_the_independent_machine():
+    names = sorted(DESIGNS)
+    assert_knits_as_designed([build(DESIGNS[n]) for n in names], names=names)
