@@ -67,6 +67,14 @@ class Course:
         """All ids of a flat course, in needle order (left to right)."""
         return self.ids[np.argsort(self.needle, kind="stable")]
 
+    def in_bed_order(self) -> np.ndarray:
+        """The ids as they lie on the bed: a ring counter-clockwise (its yarn order), a flat
+        course left to right (whichever way the yarn went), a flat course round a fold (an
+        unfolded split's branch across the fold) along the fold, as it was laid out."""
+        if self.circular or np.unique(self.side).size > 1:
+            return self.ids
+        return self.flat()
+
     @property
     def per_bed(self) -> int:
         return int(np.count_nonzero(self.side == FRONT)) if self.circular else self.width
@@ -401,7 +409,8 @@ def _link(state: _State, node: PrimNode, a: Course, b: Course) -> None:
     program = None if shaper in PREDEFINED else state.skel.shapers.get(str(shaper))
     for bed in ((FRONT, BACK) if a.circular or b.circular else (None,)):
         # two flat courses are linked whole, whichever bed each lies on
-        ha, hb = (a.half(bed), b.half(bed)) if bed is not None else (a.flat(), b.flat())
+        ha, hb = (a.half(bed), b.half(bed)) if bed is not None else \
+            (a.in_bed_order(), b.in_bed_order())
         m, n = ha.size, hb.size
         if m == 0 or n == 0:
             continue
@@ -457,24 +466,28 @@ def _spread(acc: _Acc, a: Course, b: Course) -> None:
     earlier (`round(-f / 2)`), which wraps round the course: on a flat course the first
     stitch took the last one's loop, a wale across the whole piece, and on a ring every pair
     at a fold straddled it, so the finer ring had to be laid out rotated against the coarser
-    one (wristband2 slid 6-7 needles at each gauge change)."""
+    one (wristband2 slid 6-7 needles at each gauge change).
+
+    Both courses are read in bed order (`Course.in_bed_order`), not yarn order: a flat
+    course knitted right to left bound in yarn order to a ring would be mirrored, its right
+    end continuing at the ring's front left, which no transfers can make."""
     m, n = a.width, b.width
+    a_ids, b_ids = a.in_bed_order(), b.in_bed_order()
     if m == n:
-        acc.wales(a.ids, b.ids)
+        acc.wales(a_ids, b_ids)
         return
-    small, large = (a, b) if m < n else (b, a)
-    f = min(max(large.width // small.width, 1), 2)
-    start = 0
-    k = np.arange(small.width * f)
-    big = (start + k) % large.width
+    small, large = (a_ids, b_ids) if m < n else (b_ids, a_ids)
+    f = min(max(large.size // small.size, 1), 2)
+    k = np.arange(small.size * f)
+    big = k % large.size
     sml = k // f
     # keep each large stitch at most once
     _, first = np.unique(big, return_index=True)
     big, sml = big[np.sort(first)], sml[np.sort(first)]
-    if small is a:
-        acc.wales(small.ids[sml], large.ids[big])
+    if m < n:
+        acc.wales(small[sml], large[big])
     else:
-        acc.wales(large.ids[big], small.ids[sml])
+        acc.wales(large[big], small[sml])
 
 
 # -- joints (short rows)
@@ -665,7 +678,8 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
 
 def _branch_layout(state: _State, node: PrimNode, base_per_bed: int, tubular: bool
                    ) -> list[tuple[int, int, bool, bool]]:
-    """(offset on the base ring, per-bed width, tubular, on the back) of every branch."""
+    """(offset on the base ring, per-bed width, tubular, laid around the ring) of every
+    branch: a flat branch of an unfolded split lies along the base ring from its offset."""
     skel = state.skel
     degree = int(node.props["degree"])
     sizes, tubes = [], []
@@ -695,23 +709,23 @@ def _branch_layout(state: _State, node: PrimNode, base_per_bed: int, tubular: bo
             positions = [sum(sizes[k] + margin for k in range(i)) / span
                          for i in range(degree)]
         positions = [min(max(p, 0.0), 1.0) if degree > 1 else 0.0 for p in positions]
-    out = []
-    for i in range(degree):
-        off = round_half_up(positions[i] * span)
-        back = unfolded and off * 2 >= span
-        out.append((off, sizes[i], tubes[i], back))
-    return out
+    return [(round_half_up(positions[i] * span), sizes[i], tubes[i], unfolded)
+            for i in range(degree)]
 
 
-def _branch_positions(off: int, width: int, tubular: bool, back: bool, base_per_bed: int
+def _branch_positions(off: int, width: int, tubular: bool, around: bool, base_per_bed: int
                       ) -> tuple[np.ndarray, np.ndarray]:
-    """(side, needle) of a branch's ring in yarn order, in the base's frame."""
+    """(side, needle) of a branch's stitches in yarn order, in the base's frame. A flat
+    branch of an unfolded split follows the base ring from its offset: front left to right,
+    then round the fold onto the back right to left (a branch in the back half lies on the
+    back bed, one across the fold on both beds, as the tube cut open there)."""
     if tubular:
         return ring(width, True, off)
     k = np.arange(width, dtype=np.int32)
-    if back:  # unfolded onto the back bed: the base ring continues right to left there
-        start = off - base_per_bed
-        return np.ones(width, np.int8), (base_per_bed - 1 - start - k).astype(np.int32)
+    if around:
+        j = (off + k) % (2 * base_per_bed)
+        back = j >= base_per_bed
+        return back.astype(np.int8), np.where(back, 2 * base_per_bed - 1 - j, j).astype(np.int32)
     return np.zeros(width, np.int8), (off + k).astype(np.int32)
 
 
@@ -739,8 +753,8 @@ def _split(state: _State, node: PrimNode, visit: NodeVisit) -> None:
             base = acc.course(idx, side, needle, tubular, "interface", gauge)
         acc.name(base, ItfId(node.name, "base"))
         frame = _frame(base, base_per_bed, tubular)
-        for path, (off, w, tub, back) in zip(paths, layout, strict=True):
-            side, needle = _branch_positions(off, w, tub, back, base_per_bed)
+        for path, (off, w, tub, around) in zip(paths, layout, strict=True):
+            side, needle = _branch_positions(off, w, tub, around, base_per_bed)
             br = acc.course(idx, side, needle, tub, "interface", gauge)
             _grid_wales(acc, frame, br)
             acc.name(br, ItfId(node.name, path))
@@ -750,9 +764,9 @@ def _split(state: _State, node: PrimNode, visit: NodeVisit) -> None:
 
     # a merge: every branch is knitted; gather them on the base ring
     branch_courses: list[Course] = []
-    for path, (off, w, tub, back) in zip(paths, layout, strict=True):
+    for path, (off, w, tub, around) in zip(paths, layout, strict=True):
         prev = _incoming(state, node, path)
-        side, needle = _branch_positions(off, w, tub, back, base_per_bed)
+        side, needle = _branch_positions(off, w, tub, around, base_per_bed)
         if prev is not None and (prev.circular != tub or prev.width != side.size):
             # the producer's course does not fit the branch (flat into tube or sizes
             # differ): give the branch its own course, spread from the producer's
@@ -814,9 +828,10 @@ def _cols(course: Course, per_bed: int, tubular: bool) -> np.ndarray:
 
 
 def _in_yarn_order(course: Course, tubular: bool) -> np.ndarray:
-    """A producer's course ids ordered like `ring` lays positions (front L→R, back R→L)."""
+    """A producer's course ids ordered like `ring` lays positions (front L→R, back R→L); a
+    flat course in bed order (`Course.in_bed_order`)."""
     if not tubular:
-        return course.half(FRONT) if np.all(course.side == FRONT) else course.half(BACK)
+        return course.in_bed_order()
     return np.concatenate([course.half(FRONT), course.half(BACK)[::-1]])
 
 
