@@ -522,21 +522,29 @@ def _cast_on(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, new: bool) -> list[Pos
 def _precast_cover(gen: _Gen, node: int) -> set[Pos]:
     """The needles a precast may fill: where the node's stitches will be knitted, except
     needles that the schedule's shaping moves reach or pass (in a slice of the node) before
-    their stitch is knitted: a loop of no stitch cannot be carried along with the layout,
-    it would block the transfers."""
+    their stitch is knitted (a loop of no stitch cannot be carried along with the layout,
+    it would block the transfers), and needles a closing split brings its old loop to (a
+    cast-on loop there would stand in for the loop that closes the end)."""
     g, sched = gen.g, gen.sched
     ids = np.nonzero(g.node == node)[0]
     spans = [(k, min(nf.min(), nt.min()), max(nf.max(), nt.max()))
              for k, _lo, _bf, nf, _bt, nt in sc.moves(g, sched)
              if int(sched.slices.node[k]) == node]
     needle = gen.knit_needle[ids].astype(np.int64)
+    # the other side's stitch of a closed end opening into a tube knits through the old
+    # loop of a split (`_increases`)
+    kids = g.wale_next[ids]
+    two = (kids >= 0).all(1)
+    across = two & (g.side[np.maximum(kids[:, 0], 0)] != g.side[np.maximum(kids[:, 1], 0)])
+    fetched = {gen.pos(int(k)) for p, row in zip(ids[across].tolist(), kids[across].tolist())
+               for k in row if int(g.side[k]) != int(g.side[p])}
     blocked = np.zeros(ids.size, bool)
     if spans:
         k, lo, hi = (np.array(c, np.int64) for c in zip(*spans, strict=True))
         when = sc.knit_slices(sched, g.n_stitches)[ids]
         blocked = ((k <= when[:, None]) & (lo <= needle[:, None])
                    & (needle[:, None] <= hi)).any(axis=1)
-    return {gen.pos(int(x)) for x in ids[~blocked]}
+    return {gen.pos(int(x)) for x in ids[~blocked]} - fetched
 
 
 # ---- action pass ------------------------------------------------------------------------------
