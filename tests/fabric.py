@@ -420,10 +420,12 @@ def _connections(result: Result, ex: Expected) -> list[Mismatch]:
             out.append(Mismatch("connection", -1, f"{what} has no wale in the design: its "
                                 "two nodes are knitted apart"))
             continue
-        tube = [i for i in (conn.a, conn.b) if skel.interfaces[i].sides == 2]
-        tube_node = g.node_names.index(tube[0].node) if tube else -1
-        sides = {int(g.side[x]) for w in wales for x in w if int(g.node[x]) == tube_node}
-        if tube and len(sides) < 2:
+        tubes = [g.node_names.index(i.node) for i in (conn.a, conn.b)
+                 if skel.interfaces[i].sides == 2]
+        per_node = [{int(g.side[x]) for w in wales for x in w if int(g.node[x]) == t}
+                    for t in tubes]
+        sides = set().union(*per_node) if per_node else set()
+        if tubes and not any(len(ss) == 2 for ss in per_node):
             out.append(Mismatch("connection", wales[0][1], f"{what} joins a tube on one side "
                                 f"only (its wales are all on the {'back' if sides == {1} else 'front'})"
                                 ": a one-sided seam"))
@@ -479,6 +481,16 @@ def describe_all(mismatches: list[Mismatch], limit: int = 25) -> str:
 
 # ---- for tests --------------------------------------------------------------------------------
 
+def _source_of(i: int, r: Result) -> str:
+    """A design's name in a failure: its source text and `-D` values, to reproduce it."""
+    from knitc.syntax.fmt import format_expr
+
+    text = next((f.text for p, f in r.diagnostics.sources.items()
+                 if not p.startswith("<")), "")
+    defines = " ".join(f"-D {k}={format_expr(v)}" for k, v in r.defines.items())
+    return f"design {i} ({defines or 'no -D'}):\n{text}"
+
+
 ANNOUNCED_BY = {"Long_Float_Warning": "W803"}
 """The independent machine's hazard warnings and the knitc warning that announces each at
 the design's line: a design may be hazardous (the designer's choice, warned about), but
@@ -500,7 +512,7 @@ def assert_knits_as_designed(results: Sequence[Result], *, names: Sequence[str] 
     from knitc.backends.knitout import write_knitout
     from oracle import run_oracle_on_text
 
-    names = list(names) if names is not None else [f"design {i}" for i in range(len(results))]
+    names = list(names) if names is not None else [_source_of(i, r) for i, r in enumerate(results)]
     allows = list(allow) if allow and not isinstance(next(iter(allow)), str) else \
         [allow] * len(results)
     texts = []
