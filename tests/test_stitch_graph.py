@@ -515,6 +515,22 @@ def test_flat_branches_of_an_unfolded_split_continue_into_their_sheets(shaper):
                 assert len(nexts(g, int(x))) == 1, (sheet, course, int(x))
 
 
+def test_an_unfolded_split_lays_every_branch_flat():
+    # a tube joined to a branch of an unfolded split does not make that branch a tube (it
+    # used to be laid as a ring beyond the base, with no wale to it): the branch lies flat
+    # along the base ring and the tube is spread from it
+    g = build("tube t { length: 2  width: 8 }\nsplit s { degree: 2  folded: false }\n"
+              "sheet a { type: flat  length: 2  width: 4 }\ntube b { length: 3  width: 6 }\n"
+              "t.top -> s.base\ns.branches[0] -> a.bottom\ns.branches[1] -> b.bottom\n")
+    for branch in ("s.branches[0]", "s.branches[1]"):
+        c = named(g, branch)
+        assert not g.course_circular[c]
+        assert all(prevs(g, int(x)) for x in g.course_ids(c))  # each from a base stitch
+    b = g.node_names.index("b")
+    first = int(np.flatnonzero(g.course_node == b)[0])
+    assert all(prevs(g, int(x)) for x in g.course_ids(first))
+
+
 def test_gauge_change_spreads_full_onto_half():
     # 6 per bed at full gauge span the needles of 3 per bed at half gauge: the courses stay
     # apart and each half-gauge stitch i takes full-gauge stitches 2i and 2i + 1, the loops

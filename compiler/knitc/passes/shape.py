@@ -682,16 +682,16 @@ def _branch_layout(state: _State, node: PrimNode, base_per_bed: int, tubular: bo
     branch: a flat branch of an unfolded split lies along the base ring from its offset."""
     skel = state.skel
     degree = int(node.props["degree"])
-    sizes, tubes = [], []
-    for i in range(degree):
-        itf = skel.interfaces[ItfId(node.name, f"branches/{i}")]
-        br_tub = (itf.sides or (2 if tubular and node.props["folded"] else 1)) == 2
-        br_tub = br_tub and tubular  # on a flat base every branch lies flat
-        tubes.append(br_tub)
-        sizes.append((itf.size or 0) // (2 if br_tub else 1))
-    # flat branches of a tubular base lie around its ring, folded or not
+    itfs = [skel.interfaces[ItfId(node.name, f"branches/{i}")] for i in range(degree)]
+    tubes = [(itf.sides or (2 if tubular and node.props["folded"] else 1)) == 2 and tubular
+             for itf in itfs]  # on a flat base every branch lies flat
+    # flat branches of a tubular base lie around its ring, folded or not; an unfolded split
+    # opens the tube, so all its branches are flat (a tube joined to one closes it again)
     folded = bool(node.props["folded"]) and (not tubular or all(tubes))
     unfolded = tubular and not folded
+    if unfolded:
+        tubes = [False] * degree
+    sizes = [(itf.size or 0) // (2 if tub else 1) for itf, tub in zip(itfs, tubes, strict=True)]
     span = base_per_bed * (2 if unfolded else 1)
     layout = node.props.get("layout", "auto")
     if isinstance(layout, tuple):
