@@ -643,7 +643,9 @@ class _Planner:
             d = new[id(u)] - x
             parks.append((u, u.pos, slot, 0))
             returns.append((u, slot, (bed, new[id(u)]), d if bed == "f" else -d))
-        returns.sort(key=lambda m: (m[3], m[2][1]))
+        # by racking, then by the bed they come back from: a DAT row takes transfers of one
+        # kind only, so interleaving the beds would cut the pass into a row per loop
+        returns.sort(key=lambda m: (m[3], m[1][0], m[2][1]))
         self.commit(parks + returns)
         return True
 
