@@ -285,6 +285,25 @@ def _run(gen: _Gen) -> None:
         raise Unsupported(f"{len(leftover)} loops would be left on the needles")
 
 
+def _lead_out(gen: _Gen, ctx: cast.Ctx, sub: np.ndarray) -> None:
+    """End a pass (its main steps) past the needle where its yarn's next pass starts, the
+    other way: the carrier is then already on the side that pass starts from. Without it a
+    Shima DAT needs a carrier move of its own (a kickback row, two with the converter's
+    rules) before the next pass: at a half-gauge tube's fold, a purl knitted on the facing
+    needle leaves the carrier beyond the next round's first needle."""
+    t = gen.t
+    v = int(sub[-1])
+    w = v + 1
+    if w >= t.n_visits or t.yarn[w] != t.yarn[v]:
+        return
+    d, nd = int(gen.dirs[v]), int(gen.dirs[w])
+    here, there = gen.bed.carrier_at.get(ctx.carrier), gen.pos(int(t.stitch[w]))[1]
+    if nd != -d or here is None or (here - (there - 0.5 * nd)) * nd <= 0:
+        return
+    if 0 <= there < gen.bed.prog.machine.needles:
+        cast.emit(ctx, "miss", d, ("f", there), int(t.stitch[v]))
+
+
 def _reused_later(gen: _Gen, ends: list[int], rest: np.ndarray) -> bool:
     """Whether a stitch still to be knitted in this course lands on an ending loop's needle."""
     held = {gen.bed.where.get(x) for x in ends}
@@ -557,7 +576,10 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
             incs[s] = ("fetch",)
     acts = [_action(gen, ctx, int(s), int(d) or 1, incs.get(int(s)))
             for s, d in zip(gen.t.stitch[chunk], gen.dirs[chunk], strict=True)]
-    for part in actions.prepare_pass(gen, acts):  # one, or per bed (`split_by_side`)
+    parts = actions.prepare_pass(gen, acts)  # one, or per bed (`split_by_side`)
+    if parts and parts[-1]:
+        parts[-1][-1].main.append(lambda: _lead_out(gen, ctx, chunk))
+    for part in parts:
         run_actions(part)
     if gen.bed.rack:  # a user action's transfers may leave the machine racked
         gen.bed.set_rack(0)
@@ -579,7 +601,8 @@ def _action(gen: _Gen, ctx: cast.Ctx, s: int, d: int, inc: tuple | None) -> Acti
     def kickback() -> None:
         if bed.loops.get(pos, 0):
             knit()
-        else:
+        else:  # the carrier passes the needle in the pass, then comes back to tuck it
+            cast.emit(ctx, "miss", d, pos, s)
             cast.emit(ctx, "tuck", -d, pos, s, numbers.increase)
 
     def missed() -> None:
@@ -603,6 +626,8 @@ def _action(gen: _Gen, ctx: cast.Ctx, s: int, d: int, inc: tuple | None) -> Acti
         return Action(s, main=[knit])
     if inc[0] == "kickback":
         return Action(s, main=[kickback])
+    if inc[0] == "laid":
+        return Action(s, main=[knit])
     if inc[0] == "fetch":
         return Action(s, main=[lambda: _fetch(gen, s), knit])
     if inc[0] == "miss":
@@ -673,7 +698,7 @@ def _miss(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos) -> None:
 
 def _increases(gen: _Gen, chunk: np.ndarray, primary: dict[int, int]) -> dict[int, tuple]:
     """How each increase of the course is made: the child without its parent's loop gets a
-    ("kickback",), or, for split increases with a free facing needle, the child with the
+    ("kickback",) (("laid",), a tuck in the pass, across a gauge change), or, for split increases with a free facing needle, the child with the
     loop gets ("split", facing needle, sibling) and its sibling ("miss",). A child whose
     needle already holds a loop (a precast one) is a plain knit.
 
@@ -729,7 +754,10 @@ def _increases(gen: _Gen, chunk: np.ndarray, primary: dict[int, int]) -> dict[in
                 busy.add(target)
                 continue
             gen.split_fallbacks[node] += 1
-        out[c2] = ("kickback",)
+        # across a gauge change the finer gauge's new loops are laid in the pass, every
+        # other needle, like a cast-on: a kickback each would reverse the carriage twice
+        out[c2] = ("laid",) if g.course_gauge[g.course[c2]] != g.course_gauge[g.course[p]] \
+            else ("kickback",)
     return out
 
 
