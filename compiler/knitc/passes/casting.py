@@ -19,7 +19,12 @@ yarn start (Fig. 6-27)
     the course when there is room, else free needles between, as in half gauge), in the
     order rightmost (leftward), leftmost (rightward), middle (leftward): the first pass after
     ``inhook`` must go leftward and the hook, parked just right of the first tuck, blocks
-    every needle to its right until ``releasehook``; then ``releasehook``. The catching loops
+    every needle to its right until ``releasehook``; then ``releasehook``. A fourth tuck,
+    rightward, ends the zigzag unless the cast-on starts rightward to the right of the
+    tucks: the release then follows a pass the other way (a Shima DAT releases on a pass of
+    its own in the hook's direction, and would need an empty pass to turn the carriage
+    first), and a leftward cast-on's first pass turns the carrier instead of needing a
+    carrier move back. The catching loops
     are dropped once the first course is knitted. A yarn that starts on live loops is
     brought in with ``in``.
 cast-ons (`CAST_ONS` of the skeleton)
@@ -93,7 +98,8 @@ class StitchNumbers:
 STITCH_NUMBERS = StitchNumbers()
 
 CATCH_TUCKS = 3
-"""Tucks that catch a new yarn before the hook releases it (Fig. 6-27 uses three)."""
+"""Tucks that catch a new yarn before the hook releases it (Fig. 6-27 uses three); one more
+unless the cast-on starts rightward from their right (see the module docstring)."""
 CATCH_REACH = 12
 """Farthest a catching tuck may be from where the cast-on begins (knitc's float limit)."""
 TAIL_KNITS = 5
@@ -230,9 +236,9 @@ def emit_plan(ctx: Ctx, steps: Sequence[Step]) -> None:
 
 # ---- yarn start -------------------------------------------------------------------------------
 
-def catch_positions(bed: Bed, start: Pos, outward: int, busy: set[Pos], needles: int
-                    ) -> list[Pos]:
-    """Up to `CATCH_TUCKS` free needles for the catching tucks: empty, not `busy` (needles the
+def catch_positions(bed: Bed, start: Pos, outward: int, busy: set[Pos], needles: int,
+                    count: int = CATCH_TUCKS) -> list[Pos]:
+    """Up to `count` free needles for the catching tucks: empty, not `busy` (needles the
     cast-on or the first course will use), nearest `start`, outside (on the `outward` side)
     first, the back bed first at equal distance (the first tuck goes on the bed opposite the
     inserting hook, ch. 6.8.1)."""
@@ -246,7 +252,7 @@ def catch_positions(bed: Bed, start: Pos, outward: int, busy: set[Pos], needles:
             off = (idx - start[1]) * outward
             cands.append((0 if off > 0 else 1, abs(idx - start[1]), b != "b", p))
     cands.sort()
-    return [c[3] for c in cands[:CATCH_TUCKS]]
+    return [c[3] for c in cands[:count]]
 
 
 def yarn_start(ctx: Ctx, start: Step | Entry, busy: set[Pos], stitch: int) -> list[Pos]:
@@ -256,18 +262,26 @@ def yarn_start(ctx: Ctx, start: Step | Entry, busy: set[Pos], stitch: int) -> li
     bed = ctx.bed
     bed.prog.stitch_number(ctx.numbers.yarn_start)
     bed.prog.inhook((ctx.carrier,), stitch=stitch, span=ctx.span)
-    catch = catch_positions(bed, start.pos, -start.dir or -1, busy, ctx.needles)
+    catch = catch_positions(bed, start.pos, -start.dir or -1, busy, ctx.needles,
+                            CATCH_TUCKS + 1)
     if not catch:
         raise Unsupported(f"no free needle within {CATCH_REACH} needles of "
                           f"{start.pos[0]}{start.pos[1]} to catch the new yarn on")
-    # rightmost leftward, leftmost rightward, middle leftward: a zigzag that never goes
-    # right of the first tuck, where the hook sits until it is released
     order = sorted(catch, key=lambda p: (p[1], p[0] == "b"))
-    seq = [(order[-1], -1)]
-    if len(order) > 1:
-        seq.append((order[0], 1))
-    if len(order) > 2:
-        seq.append((order[1], -1))
+    if len(catch) > CATCH_TUCKS and (order[-1][0] != "b" or (  # the first tuck goes on the back
+            start.dir > 0 and all(p[1] < start.pos[1] for p in catch[:CATCH_TUCKS]))):
+        catch = catch[:CATCH_TUCKS]  # (or the cast-on starts rightward from the tucks' right)
+        order = sorted(catch, key=lambda p: (p[1], p[0] == "b"))
+    # rightmost leftward, leftmost rightward, then inwards from both ends the same way: a
+    # zigzag that never goes right of the first tuck, where the hook sits until released
+    seq: list[tuple[Pos, int]] = []
+    lo, hi = 0, len(order) - 1
+    while lo <= hi:
+        seq.append((order[hi], -1))
+        hi -= 1
+        if lo <= hi:
+            seq.append((order[lo], 1))
+            lo += 1
     for p, d in seq:
         emit(ctx, "tuck", d, p)
     bed.prog.releasehook((ctx.carrier,))

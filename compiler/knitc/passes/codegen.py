@@ -294,14 +294,19 @@ def _lead_out(gen: _Gen, ctx: cast.Ctx, sub: np.ndarray) -> None:
     t = gen.t
     v = int(sub[-1])
     w = v + 1
-    if w >= t.n_visits or t.yarn[w] != t.yarn[v]:
-        return
-    d, nd = int(gen.dirs[v]), int(gen.dirs[w])
-    here, there = gen.bed.carrier_at.get(ctx.carrier), gen.pos(int(t.stitch[w]))[1]
+    if w < t.n_visits and t.yarn[w] == t.yarn[v]:
+        _lead_to(gen, ctx, int(gen.dirs[v]), gen.pos(int(t.stitch[w]))[1],
+                 int(gen.dirs[w]), int(t.stitch[v]))
+
+
+def _lead_to(gen: _Gen, ctx: cast.Ctx, d: int, there: int, nd: int, stitch: int) -> None:
+    """Miss on in direction `d` to needle `there` when the yarn's next pass starts there
+    going `nd` = -d and the carrier has not passed it yet (`_lead_out`)."""
+    here = gen.bed.carrier_at.get(ctx.carrier)
     if nd != -d or here is None or (here - (there - 0.5 * nd)) * nd <= 0:
         return
     if 0 <= there < gen.bed.prog.machine.needles:
-        cast.emit(ctx, "miss", d, ("f", there), int(t.stitch[v]))
+        cast.emit(ctx, "miss", d, ("f", there), stitch)
 
 
 def _reused_later(gen: _Gen, ends: list[int], rest: np.ndarray) -> bool:
@@ -535,6 +540,9 @@ def _cast_on(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, new: bool) -> list[Pos
                                     entries[0].stitch)
     with gen.bed.prog.code_pass("cast_on"):
         cast.emit_plan(ctx, plan)
+        if plan:  # end past where the first course starts, as an action pass does
+            e0 = entries[0]
+            _lead_to(gen, ctx, plan[-1].dir, e0.pos[1], e0.dir, plan[-1].stitch)
     return catch
 
 
