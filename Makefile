@@ -2,7 +2,8 @@
 # nothing needs to be installed by hand beyond python3 (>= 3.11) with venv and pip.
 #
 #   make run        create .venv, install knitc into it, compile examples/sweater.knit to Knitout
-#   make test       install knitc + test tools into .venv, run the test suite
+#   make test       install knitc + test tools into .venv, run the test suite (deterministic)
+#   make explore    the test suite with fresh random hypothesis examples (fuzzing runs)
 #   make lint       ruff check
 #   make fmt-check  ruff format --check (make fmt applies it)
 #   make clean      remove build artifacts and caches (make distclean also removes .venv)
@@ -32,11 +33,12 @@ ORACLE_BASE_PYTHON ?= $(shell \
   done)
 
 .DEFAULT_GOAL := help
-.PHONY: help venv install run test lint fmt fmt-check clean distclean oracle-venv oracle-clean bench
+.PHONY: help venv install run test explore lint fmt fmt-check clean distclean oracle-venv oracle-clean bench
 
 help:
 	@echo "make run        install knitc into .venv and compile $(EXAMPLE) to Knitout"
 	@echo "make test       install knitc and its test extra into .venv, run pytest"
+	@echo "make explore    the test suite with fresh random hypothesis examples each run"
 	@echo "make lint       ruff check $(SRC)"
 	@echo "make fmt-check  ruff format --check $(SRC)   (make fmt: reformat)"
 	@echo "make venv       create .venv if missing;  make install: (re)install knitc into it"
@@ -71,8 +73,15 @@ test: venv oracle-venv
 	$(PIP) install -q ".[test]"
 	$(BIN)/python -m pytest
 
+# `make test` draws the same hypothesis examples on every run (tests/conftest.py); this runs
+# the suite with new random ones, keeping what fails in .hypothesis/ to replay.
+explore: venv oracle-venv
+	@rm -rf build
+	$(PIP) install -q ".[test]"
+	KNITC_HYPOTHESIS=explore $(BIN)/python -m pytest
+
 # Speed and memory of every example and of a scaling series (bench/results.json).
-bench: install
+bench: install oracle-venv
 	$(BIN)/python bench/run.py
 
 # ruff comes with the test extra; install just ruff when only lint is asked for.
