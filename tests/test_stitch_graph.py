@@ -698,8 +698,6 @@ def test_verifier_catches_two_to_two_links():
     h.wale_prev[child, 1] = other
     assert old >= 0
     assert any("2->2" in p for p in sg.verify(h))
-    with pytest.raises(AssertionError, match="invalid stitch graph"):
-        sg.check(h)
 
 
 # ---- fidelity against the original knitskel -----------------------------------------------------

@@ -15,8 +15,8 @@ import tempfile
 import traceback
 
 from knitc import __version__
-from knitc.diagnostics import Diagnostics, Note
-from knitc.driver import PLANNED_STAGES, STAGES, compile_file, emit_json
+from knitc.diagnostics import Diagnostics
+from knitc.driver import EMITTABLE, STAGES, TARGETS, compile_file, emit_json, timing_table
 
 EXAMPLES = """\
 examples:
@@ -29,6 +29,8 @@ examples:
   knitc -D finger_len=26 check examples/glove.knit
   knitc --emit skeleton examples/sock.knit      print the resolved skeleton IR as JSON
   knitc --emit ast -o sock.ast.json examples/sock.knit
+  knitc --until schedule --time-passes examples/sweater.knit
+                                                run up to a stage, time every stage
   knitc fmt examples/sweater.knit               print the canonical form
   knitc fmt --check examples/*.knit             exit 1 if a file is not canonical
   knitc fmt -i examples/sweater.knit            rewrite a file in canonical form
@@ -42,6 +44,8 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="-W error: treat warnings as errors")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="print errors only (no warnings, no summary)")
+    p.add_argument("--time-passes", action="store_true",
+                   help="print the seconds each stage took on standard error")
 
 
 def _main_parser() -> argparse.ArgumentParser:
@@ -53,13 +57,17 @@ def _main_parser() -> argparse.ArgumentParser:
         epilog=EXAMPLES)
     p.add_argument("file", metavar="FILE", help="the .knit design to compile")
     p.add_argument("-o", "--output", metavar="OUT",
-                   help="output file (default: standard output for --emit)")
-    p.add_argument("--emit", metavar="IR", choices=STAGES + PLANNED_STAGES,
+                   help="output file, `-` for standard output (default: standard output "
+                        "for --emit; without either, compile and report only)")
+    p.add_argument("--emit", metavar="IR", choices=EMITTABLE,
                    help="print one intermediate representation as JSON: "
-                        + ", ".join(STAGES)
-                        + (f" (later: {', '.join(PLANNED_STAGES)})" if PLANNED_STAGES else ""))
-    p.add_argument("--target", choices=["knitout", "dat"],
-                   help="machine format (default: from the -o extension)")
+                        + ", ".join(EMITTABLE))
+    p.add_argument("--until", metavar="STAGE", choices=[s.name for s in STAGES],
+                   help="run the pipeline up to this stage, report its diagnostics and "
+                        "write nothing: " + ", ".join(s.name for s in STAGES))
+    p.add_argument("--target", choices=[t.name for t in TARGETS],
+                   help="machine format: " + "; ".join(f"{t.name}, {t.doc}" for t in TARGETS)
+                        + " (default: from the -o extension)")
     p.add_argument("--version", action="version", version=f"knitc {__version__}")
     _common(p)
     return p
@@ -141,58 +149,50 @@ def write_atomic(path: str, data: str | bytes) -> None:
 
 def _cmd_compile(args: argparse.Namespace) -> int:
     werror = "error" in args.warn
+    to_stdout = not args.output or args.output == "-"
     target = args.target
-    if target is None and args.output and not args.emit:
-        target = "dat" if args.output.lower().endswith(".dat") else "knitout"
-    if args.emit in PLANNED_STAGES:
-        sys.stderr.write(f"knitc: error: --emit {args.emit} is not implemented yet\n")
+    if target is None and not args.emit:
+        target = "dat" if not to_stdout and args.output.lower().endswith(".dat") else "knitout"
+    if args.emit and args.until:
+        sys.stderr.write("knitc: error: give --emit or --until, not both\n")
+        return 2
+    if target == "dat" and to_stdout and not args.emit and not args.until:
+        sys.stderr.write("knitc: error: a DAT file is binary: give an output file with "
+                         "-o FILE.dat\n")
         return 1
-    until = args.emit if args.emit in STAGES else "machine"
+    if not args.output and not args.emit:
+        args.until = args.until or STAGES[-1].name  # nothing to write: compile and report
+    until = args.emit or args.until or target
     result = compile_file(args.file, defines=args.defines, until=until, werror=werror)
     _report(result.diagnostics, args.quiet)
+    if args.time_passes:
+        sys.stderr.write(timing_table(result))
     if not result.ok:
         return 1
-    if args.emit is not None:
-        text = emit_json(result, args.emit)
-    elif target == "knitout":
-        from knitc.backends.knitout import write_knitout
-        assert result.program is not None
-        text = write_knitout(result.program)
-    elif target == "dat":
-        assert result.program is not None
-        data = _dat_bytes(result.program, result.diagnostics, args.quiet)
-        if data is None:
-            return 1
-        if not args.output:
-            sys.stderr.write("knitc: error: a DAT file is binary: give an output file with "
-                             "-o FILE.dat\n")
-            return 1
-        write_atomic(args.output, data)
+    if args.until:
         return 0
+    output = emit_json(result, args.emit) if args.emit else result.output
+    assert output is not None
+    if not to_stdout:
+        write_atomic(args.output, output)
+    elif isinstance(output, bytes):
+        sys.stdout.buffer.write(output)
     else:
-        return 0
-    if args.output:
-        write_atomic(args.output, text)
-    else:
-        sys.stdout.write(text)
+        sys.stdout.write(output)
     return 0
 
 
 def _dat_bytes(prog, diags: Diagnostics, quiet: bool) -> bytes | None:
-    """The DAT file of a machine program; None after reporting why the machine (or its DAT
-    format) cannot take it, at the line the refused operation came from."""
-    from knitc.backends.dat_format import DatError, encode
-    from knitc.backends.dat_write import DatWriteError, to_dat
-    try:
-        return encode(to_dat(prog))
-    except (DatWriteError, DatError) as exc:
-        index = getattr(exc, "op_index", None)
-        op = prog.ops[index] if index is not None and 0 <= index < len(prog.ops) else None
-        diags.error("E901", f"cannot write a DAT file: {getattr(exc, 'message', exc)}",
-                    op.span if op is not None else None,
-                    notes=[] if op is None else [Note(f"the operation: `{op}`")])
+    """The DAT file of a Knitout program (`k2dat`); None after reporting why the machine
+    (or its DAT format) cannot take it, at the line the refused operation came from."""
+    from knitc.driver import Result, resume
+    result = Result(diags, program=prog, stage_reached=STAGES[-1].name)
+    resume(result, "dat")
+    if not result.ok:
         _report(diags, quiet)
         return None
+    assert isinstance(result.output, bytes)
+    return result.output
 
 
 def _read_input(path: str, binary: bool) -> str | bytes | None:
@@ -256,8 +256,10 @@ def _cmd_check(args: argparse.Namespace) -> int:
     # `check` runs the whole pipeline but writes nothing: a design that checks clean
     # compiles clean, and code generation's findings (E602, W60x, W80x) are reported too.
     result = compile_file(args.file, defines=args.defines, werror="error" in args.warn,
-                          until="machine")
+                          until=STAGES[-1].name)
     _report(result.diagnostics, args.quiet)
+    if args.time_passes:
+        sys.stderr.write(timing_table(result))
     return 0 if result.ok else 1
 
 
@@ -300,7 +302,7 @@ def main(argv: list[str] | None = None) -> int:
         # Options may come before the subcommand (`knitc -D x=1 check f.knit`).
         sub = next((i for i, a in enumerate(argv) if a in ("check", "fmt", "k2dat", "dat2k")
                     and (i == 0 or argv[i - 1] not in ("-D", "-o", "--output", "--emit", "-W",
-                                                       "--target"))), None)
+                                                       "--target", "--until"))), None)
         if sub is not None:
             rest = argv[:sub] + argv[sub + 1:]
             if argv[sub] == "check":

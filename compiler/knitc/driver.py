@@ -1,52 +1,55 @@
-"""The pipeline, readable in one place.
+"""The pipeline, readable in one place, and the table of its stages.
 
-    source ──parse──▶ AST ──resolve + verify──▶ Skeleton ──shape──▶ StitchGraph ──pattern──▶
-      StitchGraph ──trace──▶ Trace
-      ──slice──▶ Slices ──schedule──▶ Schedule ──codegen──▶ MachineProgram
-      ──simulate──▶ diagnostics;  MachineProgram ──emit──▶ Knitout
-    (DAT comes later)
+    source ──parse──▶ AST ──resolve──▶ Skeleton ──shape, pattern, check──▶ StitchGraph
+      ──trace──▶ Trace ──slice──▶ Slices ──schedule──▶ Schedule
+      ──generate, simulate──▶ MachineProgram ──▶ Knitout text | DAT bytes
 
-Each stage is a pure function of the previous IR plus a `Diagnostics` collection; the driver
-stops after the first stage that reported errors, because later stages would only repeat
-them in other words. `compile_file` is what the CLI, the tests and (later) the language
-server call.
+`STAGES` lists the IR stages in pipeline order and `TARGETS` the machine formats that follow
+the last one. Each `Stage` names its function, the verifier run after it and its dump, and
+everything else is derived from the table: `--emit` (the stages that have a dump),
+`--until`, `knitc check` (every IR stage, no target), the output files and
+`--time-passes`. A stage is a function of the `Result` so far that stores its IR there and
+returns False when it reported errors; the driver stops after the first stage that did,
+because later stages would only repeat them in other words.
+
+`compile_source` / `compile_file` run the pipeline from the start up to a stage; `resume`
+continues a `Result` further, reusing the IRs it holds, so a tool that first asked for the
+skeleton (the language server) can later ask for the machine program without parsing again.
 """
 
 from __future__ import annotations
 
 import json
+import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from knitc.diagnostics import Diagnostics
+from knitc.diagnostics import Diagnostics, Note
 from knitc.ir import machine as mp
 from knitc.ir import schedule as sc
 from knitc.ir import skeleton as sk
 from knitc.ir import slices as sl
 from knitc.ir import stitch_graph as sg
 from knitc.ir import trace as tr
-from knitc.passes.codegen import generate, options_from_skeleton
-from knitc.passes.instructions import check_instructions
-from knitc.passes.pattern import apply_patterns
-from knitc.passes.resolve import parse_define, resolve
-from knitc.passes.schedule import schedule
-from knitc.passes.shape import build_stitch_graph
-from knitc.passes.simulate import add_to_diagnostics, simulate
-from knitc.passes.slice import slice_trace
-from knitc.passes.trace import trace_courses
 from knitc.source import SourceFile
 from knitc.syntax import ast
-from knitc.syntax.parser import parse_source
 
-STAGES = ("ast", "skeleton", "stitch-graph", "trace", "slices", "schedule", "machine")
-"""IRs that `--emit` can print today, in pipeline order."""
 
-PLANNED_STAGES: tuple[str, ...] = ()
+class InternalError(Exception):
+    """A verifier between stages found an IR that breaks its invariants: a bug in knitc,
+    never in the design (the CLI reports it as an internal error, exit 3)."""
 
 
 @dataclass
 class Result:
+    """Everything one compilation produced so far: the IR of every stage it reached, the
+    diagnostics, the time each stage took, and the output of the target stage if one ran."""
+
     diagnostics: Diagnostics
+    path: str = "<input>"
+    text: str = ""
+    werror: bool = False
     module: ast.Module | None = None
     skeleton: sk.Skeleton | None = None
     graph: sg.StitchGraph | None = None
@@ -54,82 +57,219 @@ class Result:
     slices: sl.Slices | None = None
     schedule: sc.Schedule | None = None
     program: mp.MachineProgram | None = None
+    output: str | bytes | None = None
     stage_reached: str = "none"
     defines: dict[str, ast.Node] = field(default_factory=dict)
+    timings: list[tuple[str, float]] = field(default_factory=list)
+    """(stage, seconds) for every stage run, in order (`knitc --time-passes`)."""
 
     @property
     def ok(self) -> bool:
         return not self.diagnostics.has_errors
 
 
-def compile_source(text: str, path: str, *, defines: list[str] = (), until: str = "skeleton",
-                   werror: bool = False) -> Result:
-    """Run the front end on `text` up to and including stage `until`."""
-    diags = Diagnostics()
-    result = Result(diags)
-    parsed_defines: dict[str, ast.Node] = {}
-    for d in defines:
-        got = parse_define(d, diags)
-        if got is not None:
-            parsed_defines[got[0]] = got[1]
-    result.defines = parsed_defines
-    module = parse_source(SourceFile(path, text), diags)
-    if module is None:
-        return result
-    result.module, result.stage_reached = module, "ast"
-    if until == "ast" or diags.has_errors:
-        return _finish(result, werror)
-    skel = resolve(module, path, diags, parsed_defines)
-    result.skeleton = skel
-    result.stage_reached = "skeleton"
-    if until == "skeleton" or skel is None or diags.has_errors:
-        return _finish(result, werror)
-    graph = build_stitch_graph(skel, diags)
+@dataclass(frozen=True)
+class Stage:
+    """One step of the pipeline: `run` computes its IR from the earlier ones in the
+    `Result` and stores it (False: it reported errors, stop); `verify` lists the IR's
+    broken invariants (empty when valid); `dump` is its stable JSON (`--emit NAME`)."""
+
+    name: str
+    run: Callable[[Result], bool]
+    verify: Callable[[Result], list[str]] | None = None
+    dump: Callable[[Result], Any] | None = None
+    doc: str = ""
+
+
+# ---- the stages, in pipeline order ----------------------------------------------------------
+
+def _parse(r: Result) -> bool:
+    from knitc.syntax.parser import parse_source
+    r.module = parse_source(SourceFile(r.path, r.text), r.diagnostics)
+    return r.module is not None
+
+
+def _resolve(r: Result) -> bool:
+    from knitc.passes.resolve import resolve
+    assert r.module is not None
+    r.skeleton = resolve(r.module, r.path, r.diagnostics, r.defines)
+    return r.skeleton is not None
+
+
+def _stitch_graph(r: Result) -> bool:
+    from knitc.passes.instructions import check_instructions
+    from knitc.passes.pattern import apply_patterns
+    from knitc.passes.shape import build_stitch_graph
+    assert r.skeleton is not None
+    graph = build_stitch_graph(r.skeleton, r.diagnostics)
     if graph is None:
-        return _finish(result, werror)
-    graph = check_instructions(apply_patterns(skel, graph, diags), diags,
-                               racking=skel.machine.racking)
-    sg.check(graph)  # the verifier between passes: a violation is a knitc bug
-    result.graph, result.stage_reached = graph, "stitch-graph"
-    if until == "stitch-graph" or diags.has_errors:
-        return _finish(result, werror)
-    trace = trace_courses(graph)
-    problems = tr.verify(graph, trace)
-    if problems:
-        raise AssertionError("tracing produced an invalid trace: " + "; ".join(problems))
-    result.trace, result.stage_reached = trace, "trace"
-    if until == "trace":
-        return _finish(result, werror)
-    m = skel.machine
+        return False
+    _verify("shape", sg.verify(graph))
+    patterned = apply_patterns(r.skeleton, graph, r.diagnostics)
+    r.graph = check_instructions(patterned, r.diagnostics, racking=r.skeleton.machine.racking)
+    return True
+
+
+def _trace(r: Result) -> bool:
+    from knitc.passes.trace import trace_courses
+    assert r.graph is not None
+    r.trace = trace_courses(r.graph)
+    return True
+
+
+def _slice(r: Result) -> bool:
+    from knitc.passes.slice import slice_trace
+    assert r.skeleton is not None and r.graph is not None and r.trace is not None
+    m = r.skeleton.machine
     limits = {"flat_limit": m.slice_shaping, "tube_limit": m.slice_shaping} \
         if m.slice_shaping else {}
-    slices = slice_trace(graph, trace, **limits)
-    sl.check(graph, trace, slices)  # the verifier between passes: a violation is a knitc bug
-    result.slices, result.stage_reached = slices, "slices"
-    if until == "slices":
-        return _finish(result, werror)
-    sched = schedule(graph, slices, needles=m.needles, diags=diags)
-    if sched is None:
-        return _finish(result, werror)
-    sc.check(graph, sched)  # the verifier between passes: a violation is a knitc bug
-    result.schedule, result.stage_reached = sched, "schedule"
-    if until == "schedule":
-        return _finish(result, werror)
+    r.slices = slice_trace(r.graph, r.trace, **limits)
+    return True
+
+
+def _schedule(r: Result) -> bool:
+    from knitc.passes.schedule import schedule
+    assert r.skeleton is not None and r.graph is not None and r.slices is not None
+    r.schedule = schedule(r.graph, r.slices, needles=r.skeleton.machine.needles,
+                          diags=r.diagnostics)
+    return r.schedule is not None
+
+
+def _generate(r: Result) -> bool:
+    from knitc.passes.codegen import generate, options_from_skeleton
+    from knitc.passes.simulate import add_to_diagnostics, simulate
+    assert r.skeleton is not None and r.graph is not None
+    assert r.schedule is not None and r.trace is not None
+    m = r.skeleton.machine
     machine = mp.Machine(name=m.model, needles=m.needles, racking_limit=m.racking)
-    program = generate(graph, sched, trace, machine=machine, carriers=m.carriers, diags=diags,
-                       options=options_from_skeleton(skel))
+    program = generate(r.graph, r.schedule, r.trace, machine=machine, carriers=m.carriers,
+                       diags=r.diagnostics, options=options_from_skeleton(r.skeleton))
     if program is None:
-        return _finish(result, werror)
-    mp.check(program)  # the verifier between passes: a violation is a knitc bug
-    add_to_diagnostics(simulate(program), program, diags)
-    result.program, result.stage_reached = program, "machine"
-    return _finish(result, werror)
+        return False
+    _verify("machine", mp.verify(program))
+    add_to_diagnostics(simulate(program), program, r.diagnostics)
+    r.program = program
+    return True
 
 
-def _finish(result: Result, werror: bool) -> Result:
-    if werror:
+def _knitout(r: Result) -> bool:
+    from knitc.backends.knitout import write_knitout
+    assert r.program is not None
+    r.output = write_knitout(r.program)
+    return True
+
+
+def _dat(r: Result) -> bool:
+    """The DAT file's bytes; an error at the line of the operation the machine (or its DAT
+    format) cannot take."""
+    from knitc.backends.dat_format import DatError, encode
+    from knitc.backends.dat_write import DatWriteError, to_dat
+    prog = r.program
+    assert prog is not None
+    try:
+        r.output = encode(to_dat(prog))
+    except (DatWriteError, DatError) as exc:
+        index = getattr(exc, "op_index", None)
+        op = prog.ops[index] if index is not None and 0 <= index < len(prog.ops) else None
+        r.diagnostics.error("E901", f"cannot write a DAT file: {getattr(exc, 'message', exc)}",
+                            op.span if op is not None else None,
+                            notes=[] if op is None else [Note(f"the operation: `{op}`")])
+        return False
+    return True
+
+
+def _has(*names: str) -> Callable[[Result], bool]:
+    return lambda r: all(getattr(r, n) is not None for n in names)
+
+
+STAGES: tuple[Stage, ...] = (
+    Stage("ast", _parse, None, lambda r: ast.to_json(r.module),
+          "the syntax tree, every node with its source span"),
+    Stage("skeleton", _resolve, None, lambda r: sk.to_json(r.skeleton),
+          "the primitives with resolved parameters, interfaces and connections"),
+    Stage("stitch-graph", _stitch_graph, lambda r: sg.verify(r.graph),
+          lambda r: sg.to_json(r.graph),
+          "stitches, courses and wales, with pattern instructions and actions"),
+    Stage("trace", _trace, lambda r: tr.verify(r.graph, r.trace),
+          lambda r: tr.to_json(r.graph, r.trace), "the yarn path through every stitch"),
+    Stage("slices", _slice, lambda r: sl.verify(r.graph, r.trace, r.slices),
+          lambda r: sl.to_json(r.graph, r.slices), "the trace cut into bed slices"),
+    Stage("schedule", _schedule, lambda r: sc.verify(r.graph, r.schedule),
+          lambda r: sc.to_json(r.graph, r.schedule), "each slice's layout and needle offset"),
+    Stage("machine", _generate, lambda r: mp.verify(r.program),
+          lambda r: mp.to_json(r.program),
+          "machine operations, each with its stitch and source line (simulated)"),
+)
+"""The IR stages in pipeline order."""
+
+TARGETS: tuple[Stage, ...] = (
+    Stage("knitout", _knitout, doc="Knitout text (`.k`)"),
+    Stage("dat", _dat, doc="a Shima Seiki DAT file (`.dat`, binary)"),
+)
+"""The machine formats; each runs after the last IR stage."""
+
+EMITTABLE: tuple[str, ...] = tuple(s.name for s in STAGES if s.dump is not None)
+"""The names `--emit` accepts."""
+
+_BY_NAME: dict[str, Stage] = {s.name: s for s in STAGES + TARGETS}
+
+
+def stage(name: str) -> Stage:
+    """The stage called `name`; ValueError (listing the names) for any other."""
+    try:
+        return _BY_NAME[name]
+    except KeyError:
+        raise ValueError(f"unknown stage {name!r}: expected one of "
+                         + ", ".join(_BY_NAME)) from None
+
+
+def _verify(name: str, problems: list[str]) -> None:
+    """The one way a verifier runs between stages."""
+    if problems:
+        raise InternalError(f"stage `{name}` produced an invalid IR: " + "; ".join(problems[:5]))
+
+
+# ---- running it -----------------------------------------------------------------------------
+
+def resume(result: Result, until: str = "machine") -> Result:
+    """Continue `result` through stage `until` (an IR stage or a target), reusing the IRs it
+    already holds. Stops early after a stage that reported errors."""
+    names = [s.name for s in STAGES]
+    plan = STAGES[:names.index(until) + 1] if until in names else STAGES + (stage(until),)
+    for step in plan[_index(result.stage_reached):]:
+        if result.diagnostics.has_errors:
+            break
+        start = time.perf_counter()
+        ok = step.run(result)
+        if ok and step.verify is not None:
+            _verify(step.name, step.verify(result))
+        result.timings.append((step.name, time.perf_counter() - start))
+        if not ok:
+            break
+        if step.name in names:
+            result.stage_reached = step.name
+    if result.werror:
         result.diagnostics.promote_warnings()
     return result
+
+
+def _index(name: str) -> int:
+    """How many IR stages a result that reached `name` holds."""
+    names = [s.name for s in STAGES]
+    return names.index(name) + 1 if name in names else 0
+
+
+def compile_source(text: str, path: str, *, defines: list[str] | tuple[str, ...] = (),
+                   until: str = "skeleton", werror: bool = False) -> Result:
+    """Run the pipeline on `text` up to and including stage `until`."""
+    from knitc.passes.resolve import parse_define
+    stage(until)  # a misspelt stage is a mistake of the caller, not "run everything"
+    result = Result(Diagnostics(), path=path, text=text, werror=werror)
+    for d in defines:
+        got = parse_define(d, result.diagnostics)
+        if got is not None:
+            result.defines[got[0]] = got[1]
+    return resume(result, until)
 
 
 def compile_file(path: str, **kw: Any) -> Result:
@@ -141,33 +281,22 @@ def compile_file(path: str, **kw: Any) -> Result:
         diags = Diagnostics()
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
         diags.error("E001", f"cannot read `{path}`: {reason}", None)
-        return Result(diags)
+        return Result(diags, path=path)
     return compile_source(text, path, **kw)
 
 
-def emit_json(result: Result, stage: str) -> str:
-    """The stable JSON text of one IR (`knitc --emit STAGE`)."""
-    if stage == "ast":
-        assert result.module is not None
-        obj: Any = ast.to_json(result.module)
-    elif stage == "skeleton":
-        assert result.skeleton is not None
-        obj = sk.to_json(result.skeleton)
-    elif stage == "stitch-graph":
-        assert result.graph is not None
-        obj = sg.to_json(result.graph)
-    elif stage == "trace":
-        assert result.graph is not None and result.trace is not None
-        obj = tr.to_json(result.graph, result.trace)
-    elif stage == "slices":
-        assert result.graph is not None and result.slices is not None
-        obj = sl.to_json(result.graph, result.slices)
-    elif stage == "schedule":
-        assert result.graph is not None and result.schedule is not None
-        obj = sc.to_json(result.graph, result.schedule)
-    elif stage == "machine":
-        assert result.program is not None
-        obj = mp.to_json(result.program)
-    else:
-        raise ValueError(stage)
-    return json.dumps(obj, indent=1, ensure_ascii=True, allow_nan=False) + "\n"
+def emit_json(result: Result, name: str) -> str:
+    """The stable JSON text of one IR (`knitc --emit NAME`)."""
+    s = stage(name)
+    if s.dump is None:
+        raise ValueError(f"stage {name!r} has no dump")
+    if _index(result.stage_reached) < _index(name):
+        raise ValueError(f"the compilation stopped before stage {name!r}")
+    return json.dumps(s.dump(result), indent=1, ensure_ascii=True, allow_nan=False) + "\n"
+
+
+def timing_table(result: Result) -> str:
+    """`--time-passes`: seconds per stage, then the total."""
+    rows = [f"  {name:<14} {sec:8.3f}" for name, sec in result.timings]
+    total = sum(sec for _, sec in result.timings)
+    return "knitc: seconds per stage\n" + "\n".join(rows) + f"\n  {'total':<14} {total:8.3f}\n"

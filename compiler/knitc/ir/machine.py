@@ -619,12 +619,6 @@ def verify(prog: MachineProgram) -> list[str]:
     return problems
 
 
-def check(prog: MachineProgram) -> None:
-    """Raise AssertionError on invariant violations (used between passes)."""
-    problems = verify(prog)
-    if problems:
-        raise AssertionError("invalid machine program: " + "; ".join(problems[:5]))
-
 
 # ---- stable JSON ------------------------------------------------------------------------------
 

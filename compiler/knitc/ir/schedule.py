@@ -501,11 +501,6 @@ def _verify_occupancy(g: StitchGraph, sched: Schedule) -> list[str]:
     return problems
 
 
-def check(g: StitchGraph, sched: Schedule) -> None:
-    problems = verify(g, sched)
-    if problems:
-        raise AssertionError("invalid schedule: " + "; ".join(problems[:5]))
-
 
 # ---- stable JSON --------------------------------------------------------------------------
 

@@ -445,11 +445,6 @@ def _check_cycle(g: StitchGraph, dst: np.ndarray, dstate: np.ndarray, st: np.nda
     return None
 
 
-def check(g: StitchGraph, t: Trace, sl: Slices) -> None:
-    problems = verify(g, t, sl)
-    if problems:
-        raise AssertionError("invalid slices: " + "; ".join(problems[:5]))
-
 
 def to_json(g: StitchGraph, sl: Slices) -> dict[str, Any]:
     """The dump of `knitc --emit slices`: stats first, then one record per slice."""

@@ -163,12 +163,6 @@ def verify(g: StitchGraph) -> list[str]:
     return problems
 
 
-def check(g: StitchGraph) -> None:
-    """Raise AssertionError on invariant violations (used between passes)."""
-    problems = verify(g)
-    if problems:
-        raise AssertionError("invalid stitch graph: " + "; ".join(problems[:5]))
-
 
 # ---- stable JSON --------------------------------------------------------------------------
 
