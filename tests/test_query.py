@@ -175,7 +175,10 @@ def test_params_and_lets():
     ('shape("nope")', "E705"),
     ("side(end)", "E703"),
     ("wales(0).neighbors(3:1)", "E702"),
-    ("filter(wale / 0 > 1)", "E703"),
+    ("filter(wale / 0 > 1)", "E305"),  # the same code as anywhere else
+    ("filter(wale ^ (0 - 1) > 0)", "E305"),
+    ("filter(2 ^ 5000 > wale)", "E305"),
+    ("filter(wale + (wale > 1) > 0)", "E303"),
     ("a", "E704"),
 ])
 def test_errors_are_located_diagnostics(query, code):

@@ -14,6 +14,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from knitc import arith as _arith
 from knitc.source import Span
 from knitc.syntax import ast
 
@@ -193,7 +194,7 @@ class Evaluator:
             return not v
         if isinstance(v, Profile):
             return v.map(lambda x: -x)
-        return -self._as_number(v, e.operand.span, "`-`")
+        return _arith.negate(self._as_number(v, e.operand.span, "`-`"))
 
     def _Binary(self, e: ast.Binary) -> Value:
         if e.op in ("and", "or"):
@@ -278,41 +279,12 @@ class Evaluator:
         return self._as_number(self.eval(e), e.span, what)
 
 
-def arith(op: str, x: float, y: float, span: Span) -> int | float:
-    if op in ("/", "%") and y == 0:
-        raise EvalError("E305", "division by zero", span)
+def arith(op: str, x: float, y: float, span: Span) -> int | float | bool:
+    """`x op y` by the language's one arithmetic (`knitc.arith`), located at `span`."""
     try:
-        match op:
-            case "+":
-                return x + y
-            case "-":
-                return x - y
-            case "*":
-                return x * y
-            case "/":
-                q = x / y
-                return int(q) if isinstance(x, int) and isinstance(y, int) and q.is_integer() else q
-            case "%":
-                return x % y
-            case "^":
-                if abs(y) > 1024 or (abs(x) > 1 and abs(y) * math.log10(abs(x)) > 300):
-                    raise EvalError("E305", "number too large", span)
-                if x < 0 and not float(y).is_integer():
-                    raise EvalError("E305", f"{show(x)} ^ {show(y)} is not a real number", span)
-                if x == 0 and y < 0:
-                    raise EvalError("E305", "division by zero", span)
-                return x ** y
-            case "<":
-                return x < y
-            case "<=":
-                return x <= y
-            case ">":
-                return x > y
-            case ">=":
-                return x >= y
-    except (OverflowError, ZeroDivisionError) as exc:
-        raise EvalError("E305", f"arithmetic failed: {exc}", span) from None
-    raise AssertionError(op)
+        return _arith.scalar(op, x, y)
+    except _arith.ArithError as exc:
+        raise EvalError(exc.code, exc.message, span) from None
 
 
 def _describe(e: ast.Node) -> str:

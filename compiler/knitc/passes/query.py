@@ -41,7 +41,8 @@ Errors (a wrong query must not crash the compiler) become E7xx diagnostics and t
 query selects nothing: E701 unknown query or not a query, E702 bad range, E703 bad
 argument, E704 unknown name, E705 unknown node in `shape(name)`, E710 not a grid, E713 an
 image that cannot be read, E714 a bad image channel or threshold, E715 a bad grid size or
-alignment, E716 a grid that is not rectangular, E717 a bad noise argument.
+alignment, E716 a grid that is not rectangular, E717 a bad noise argument; a mistake in
+the numbers of a `filter` is E305, as anywhere else (`knitc.arith`).
 """
 
 from __future__ import annotations
@@ -54,6 +55,7 @@ from pathlib import Path
 
 import numpy as np
 
+from knitc import arith
 from knitc.diagnostics import Diagnostics
 from knitc.ir.stitch_graph import StitchGraph
 from knitc.passes import grids, raster
@@ -653,22 +655,41 @@ class _Eval:
                              hint="fields: " + ", ".join(fields_))
         if isinstance(e, ast.Unary):
             v = np.asarray(self.pred(e.operand))
-            return ~v.astype(bool) if e.op == "not" else -v
+            if e.op == "not":
+                return ~_typed(v, True, "`not` needs a boolean", e.operand.span)
+            return -_typed(v, False, "`-` needs a number", e.operand.span).astype(np.float64)
         if isinstance(e, ast.Binary):
             a, b = np.asarray(self.pred(e.left)), np.asarray(self.pred(e.right))
-            if e.op in ("/", "%") and np.any(b == 0):
-                raise QueryError("E703", "division by zero in a filter", e.span)
-            ops = {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.true_divide,
-                   "%": np.mod, "^": np.power, "==": np.equal, "!=": np.not_equal,
-                   "<": np.less, "<=": np.less_equal, ">": np.greater,
-                   ">=": np.greater_equal}
             if e.op in ("and", "or"):
                 f = np.logical_and if e.op == "and" else np.logical_or
-                return f(a.astype(bool), b.astype(bool))
-            if e.op in ops:
-                return ops[e.op](a, b)
+                return f(_typed(a, True, f"`{e.op}` needs booleans", e.left.span),
+                         _typed(b, True, f"`{e.op}` needs booleans", e.right.span))
+            if e.op in ("==", "!="):
+                # as in the scalar evaluator: a boolean never equals a number
+                if (a.dtype == bool) != (b.dtype == bool):
+                    same = np.zeros(np.broadcast(a, b).shape, dtype=bool)
+                else:
+                    same = np.equal(a.astype(np.float64), b.astype(np.float64))
+                return same if e.op == "==" else ~same
+            if e.op in arith.ARITHMETIC + arith.COMPARISONS:
+                what = f"`{e.op}` needs a number"
+                x, y = _typed(a, False, what, e.left.span), _typed(b, False, what, e.right.span)
+                try:
+                    return arith.vector(e.op, x, y)
+                except arith.ArithError as exc:
+                    raise QueryError(exc.code, exc.message, e.span) from None
         raise QueryError("E703", "a filter predicate uses numbers, stitch fields and "
                                  "arithmetic or comparisons", e.span)
+
+
+def _typed(v: np.ndarray, boolean: bool, what: str, span: Span) -> np.ndarray:
+    """`v` if it is booleans (`boolean`) or numbers (not), else the scalar evaluator's
+    E303 for the same mistake."""
+    if v.dtype.kind not in "biuf":
+        raise QueryError("E303", f"{what}, got something else", span)
+    if (v.dtype == bool) != boolean:
+        raise QueryError("E303", f"{what}, got {'a number' if boolean else 'a boolean'}", span)
+    return v
 
 
 def evaluate_query(g: StitchGraph, node: int | None, q: ast.Node | None,
