@@ -156,7 +156,7 @@ class _Gen:
         props.append(f"width: {width}")
         props += self.draw(st.lists(st.sampled_from(
             ["gauge: half", "gauge: full", "shaper: sides", "shaper: left", "alignment: right",
-             "increase: split", "expansion: 1", "casting: safe", "numbering: upward"]),
+             "increase: split"]),
             max_size=2, unique_by=lambda s: s.split(":")[0]))
         node.props = props
         self.add_node(node)

@@ -46,14 +46,6 @@ class Diagnostic:
         return self.severity is Severity.ERROR
 
 
-class CompileError(Exception):
-    """Raised by the driver when a stage ended with errors; the diagnostics are attached."""
-
-    def __init__(self, diagnostics: Diagnostics):
-        super().__init__(f"{diagnostics.error_count} error(s)")
-        self.diagnostics = diagnostics
-
-
 @dataclass
 class Diagnostics:
     """An ordered collection of diagnostics, plus the sources needed to render them."""

@@ -63,9 +63,6 @@ MACHINE_PROPS: dict[str, PropSpec] = {
 COMMON_PROPS: dict[str, PropSpec] = {
     "gauge": PropSpec("choice", None, GAUGES, doc="full or half gauge (default: machine's)"),
     "increase": PropSpec("choice", "auto", ("auto",) + INCREASES),
-    "expansion": PropSpec("int", 0, min=0, max=100, doc="extra repeats of each course (DAT R1)"),
-    "casting": PropSpec("choice", "auto", ("auto", "safe", "unsafe")),
-    "numbering": PropSpec("choice", "auto", ("auto", "upward", "downward")),
 }
 
 SHEET_PROPS: dict[str, PropSpec] = {

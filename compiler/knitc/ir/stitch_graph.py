@@ -12,8 +12,7 @@ Conventions:
 - `wale_prev` / `wale_next` hold up to two ids each (-1 = none): an increase is one stitch
   with two next wales, a decrease one stitch with two previous wales;
 - `instr` holds the pattern instruction (index into `INSTRUCTIONS`, 0 = K), `action` a stitch
-  action id (-1 = the instruction's own lowering), `yarn` a yarn mask (bit k = yarn k),
-  `origin` the pattern statement that wrote them (for diagnostics).
+  action id (-1 = the instruction's own lowering), `origin` the pattern statement that wrote them (for diagnostics).
 """
 
 from __future__ import annotations
@@ -51,7 +50,6 @@ class StitchGraph:
     wale_next: np.ndarray  # int32 (N, 2)
     instr: np.ndarray  # uint8
     action: np.ndarray  # int16
-    yarn: np.ndarray  # uint16
     span: np.ndarray  # int32: index into spans (the declaration that made the stitch)
     # per course
     course_start: np.ndarray  # int32
@@ -186,7 +184,7 @@ def to_json(g: StitchGraph, *, stitches: bool = True) -> dict[str, Any]:
              "pos": i - int(g.course_start[int(g.course[i])]), "side": int(g.side[i]),
              "needle": int(g.needle[i]), "prev": int(g.cprev[i]), "next": int(g.cnext[i]),
              "wale_prev": wp[i], "wale_next": wn[i], "instr": INSTRUCTIONS[int(g.instr[i])],
-             "action": int(g.action[i]), "yarn": int(g.yarn[i]),
+             "action": int(g.action[i]),
              "span": g.spans[int(g.span[i])].to_json(),
              **({"origin": g.spans[int(g.origin[i])].to_json()} if g.origin[i] >= 0 else {})}
             for i in range(g.n_stitches)

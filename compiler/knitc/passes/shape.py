@@ -148,7 +148,7 @@ class _Acc:
             needle=np.concatenate(self.needles) if self.needles else empty32,
             cprev=cprev.astype(np.int32), cnext=cnext.astype(np.int32),
             wale_prev=wale_prev, wale_next=wale_next, instr=np.zeros(n, np.uint8),
-            action=np.full(n, -1, np.int16), yarn=np.ones(n, np.uint16),
+            action=np.full(n, -1, np.int16),
             span=node_of_course[course].copy(), course_start=start, course_len=length,
             course_node=node_of_course, course_circular=circular,
             course_kind=table[:, 4].astype(np.int8), course_gauge=table[:, 5].astype(np.int8),
