@@ -210,6 +210,7 @@ def _cmd_k2dat(args: argparse.Namespace) -> int:
     text = _read_input(args.file, binary=False)
     if text is None:
         return 1
+    assert isinstance(text, str)
     warnings: list = []
     try:
         prog = parse_knitout(text, args.file, warnings=warnings)
@@ -235,6 +236,7 @@ def _cmd_dat2k(args: argparse.Namespace) -> int:
     data = _read_input(args.file, binary=True)
     if data is None:
         return 1
+    assert isinstance(data, bytes)
     try:
         image = decode(data)
         if args.passes:

@@ -68,7 +68,7 @@ def _num_json(x: float) -> int | float:
     return int(x) if float(x).is_integer() else x
 
 
-Value = int | float | bool | str | Word | Profile | tuple
+Value = int | float | bool | str | Word | Profile | tuple | range  # range: `interp` only
 
 
 def type_name(v: object) -> str:
@@ -113,7 +113,7 @@ def round_half_up(x: float) -> int:
     return math.floor(x + 0.5)
 
 
-BUILTINS: dict[str, tuple[Callable[..., object], tuple[int, int]]] = {
+BUILTINS: dict[str, tuple[Callable[..., Value], tuple[int, int]]] = {
     "min": (lambda *a: min(a), (1, 64)),
     "max": (lambda *a: max(a), (1, 64)),
     "abs": (abs, (1, 1)),

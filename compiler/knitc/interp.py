@@ -318,7 +318,7 @@ class Interpreter(Evaluator):
 
     def _host_call(self, name: str, host: Host, e: ast.Call) -> Value:
         args: list[Value] = []
-        kwargs: dict[str, Value] = {}
+        kwargs: dict[str, Value | Span] = {}
         for a in e.args:
             if isinstance(a, ast.KwArg):
                 if a.name.name in kwargs:

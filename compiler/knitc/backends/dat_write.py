@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import cast
 
 from knitc.ir.dat import (
     KNIT_B,
@@ -176,8 +177,8 @@ _BACK = frozenset({TUCK_B, KNIT_B, KNIT_FB, KNIT_F_TUCK_B, TUCK_F_KNIT_B, TUCK_F
 with the presser on may not mix them."""
 
 # Split-via-sliders colours by (return racking - split racking): (front op, back op).
-_SVS_CODES = {1: (107, 108), 2: (127, 128), 4: (147, 148),
-              -1: (106, 109), -2: (126, 129), -4: (146, 149)}
+_SVS_CODES: dict[float, tuple[int, int]] = {1: (107, 108), 2: (127, 128), 4: (147, 148),
+                                             -1: (106, 109), -2: (126, 129), -4: (146, 149)}
 
 
 def _combine(a: int, b: int, quarter: bool) -> int | None:
@@ -334,7 +335,7 @@ class _Writer:
         elif gripper or p.gripper == GRIP_OUT:
             return False
         slots = p.slots
-        merged = code
+        merged: int | None = code
         if d > 0:
             if slot < p.hi:
                 return False
@@ -363,6 +364,7 @@ class _Writer:
             p.hook = hook
         if gripper:
             p.gripper = gripper
+        assert merged is not None  # every None above returned False
         slots[slot] = merged
         if slot < p.lo:
             p.lo = slot
@@ -400,6 +402,7 @@ class _Writer:
             if car.last is None:
                 continue  # being brought in: nothing to kick
             k = car.kick
+            assert k is not None  # set together with `last`
             kslot = k.index + self.fl if _IS_BACK[k.bed] else k.index
             if car.kick_dir < 0:
                 if d < 0:
@@ -510,7 +513,7 @@ class _Writer:
                 self.take_out(k, op.carriers)
             elif k == "stitch":
                 self.no_svs("change the stitch")
-                lead, tight = op.value  # type: ignore[misc]
+                lead, tight = cast("tuple[float, float]", op.value)
                 number = stitch_number(lead, tight)
                 if number is None:
                     raise self.fail(f"stitch {lead:g} {tight:g} is not in the machine's stitch "
@@ -526,7 +529,7 @@ class _Writer:
                 self.no_svs("change the presser mode")
                 if op.value not in ("on", "off", "auto"):
                     raise self.fail(f"presser mode {op.value!r} is not on, off or auto")
-                self.presser = op.value  # type: ignore[assignment]
+                self.presser = op.value
             elif k == "pause":
                 self.no_svs("pause")
                 self.pause_pending = True

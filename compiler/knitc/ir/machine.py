@@ -35,7 +35,7 @@ from collections import Counter
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 from knitc.source import Span
 
@@ -192,7 +192,7 @@ class Op:
     needle: Needle | None = None
     needle2: Needle | None = None
     carriers: tuple[int, ...] = ()
-    value: float | int | str | None = None
+    value: float | int | str | tuple[float | int, float | int] | None = None
     stitch: int = -1
     span: Span | None = None
     phase: str = ""
@@ -223,7 +223,7 @@ class Op:
         if k == "rack":
             return f"rack {format_number(self.value)}"  # type: ignore[arg-type]
         if k == "stitch":
-            lead, tight = self.value  # type: ignore[misc]
+            lead, tight = cast("tuple[float, float]", self.value)
             return f"stitch {format_number(lead)} {format_number(tight)}"
         if k in ("stitch_number", "speed"):
             return f"{KNITOUT_OPCODE[k]} {format_number(self.value)}"  # type: ignore[arg-type]

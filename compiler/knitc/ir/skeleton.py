@@ -13,7 +13,7 @@ stable dump behind `knitc --emit skeleton`.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import networkx as nx
 
@@ -164,7 +164,7 @@ class PrimNode:
     @property
     def interface_paths(self) -> list[str]:
         if self.kind == "split":
-            return ["base"] + [f"branches/{i}" for i in range(int(self.props["degree"]))]
+            return ["base"] + [f"branches/{i}" for i in range(int(cast(int, self.props["degree"])))]
         return ["bottom", "top"]
 
     @property
@@ -260,7 +260,8 @@ def infer_sizes(skel: Skeleton) -> None:
     for node in skel.nodes.values():
         tub = node.tubular
         if node.kind in ("sheet", "tube") and tub is not None:
-            one = int(node.props["length"]) == 1  # one course: both ends are that course
+            # one course: both ends are that course
+            one = int(cast(float, node.props["length"])) == 1
             for path, t in (("bottom", 0.0), ("top", 0.0 if one else 1.0)):
                 itf = itfs[ItfId(node.name, path)]
                 itf.sides = 2 if tub else 1
@@ -279,8 +280,8 @@ def infer_sizes(skel: Skeleton) -> None:
                 itf.sides = sides
                 changed = True
 
-        for a, b in partner.items():
-            ia, ib = itfs.get(a), itfs.get(b)
+        for ka, kb in partner.items():
+            ia, ib = itfs.get(ka), itfs.get(kb)
             if ia is not None and ib is not None:
                 set_(ia, ib.size, ib.sides)
         for node in skel.nodes.values():
@@ -292,9 +293,9 @@ def infer_sizes(skel: Skeleton) -> None:
             elif node.kind == "split":
                 base, branches = paths[0], paths[1:]
                 if all(b.size is not None for b in branches):
-                    sides = {b.sides for b in branches}
-                    folded_sides = sides.pop() if len(sides) == 1 else None
-                    set_(base, sum(b.size for b in branches),
+                    all_sides = {b.sides for b in branches}
+                    folded_sides = all_sides.pop() if len(all_sides) == 1 else None
+                    set_(base, sum(b.size for b in branches if b.size is not None),
                          folded_sides if node.props["folded"] else None)
                 unknown = [b for b in branches if b.size is None]
                 if base.size is not None and len(unknown) == 1 and \
@@ -312,7 +313,7 @@ def infer_sizes(skel: Skeleton) -> None:
             elif node.kind == "sheet" and node.tubular is None:
                 bot, top = paths
                 sides = bot.sides or top.sides
-                one = int(node.props["length"]) == 1
+                one = int(cast(float, node.props["length"])) == 1
                 if sides is not None:
                     for p, t in ((bot, 0.0), (top, 0.0 if one else 1.0)):
                         set_(p, _width_at(node, t) * sides, sides)
@@ -334,6 +335,7 @@ def binding(skel: Skeleton, a: ItfId, b: ItfId) -> str:
     if ia.size == ib.size:
         return "merge"
     big, small = (ia, ib) if ia.size > ib.size else (ib, ia)
+    assert big.size is not None and small.size is not None  # checked above
     return "close" if big.size == 2 * small.size and big.sides == 2 else "spread"
 
 
@@ -401,7 +403,7 @@ def verify(skel: Skeleton, diags: Diagnostics) -> None:
         if node.kind == "split":
             base, branches = paths[0], paths[1:]
             if base.size is not None and all(b.size is not None for b in branches):
-                total = sum(b.size for b in branches)
+                total = sum(b.size for b in branches if b.size is not None)
                 if total > base.size:
                     diags.error("E504", f"the branches of split `{node.name}` need {total} "
                                 f"stitches but its base has {base.size}", node.span,

@@ -179,6 +179,7 @@ def to_json(g: StitchGraph, *, stitches: bool = True) -> dict[str, Any]:
         def pairs(a: np.ndarray) -> list[list[int]]:
             return [[int(x) for x in row if x >= 0] for row in a]
         wn, wp = pairs(g.wale_next), pairs(g.wale_prev)
+        assert g.origin is not None  # filled in by __post_init__
         out["stitches"] = [
             {"id": i, "course": int(g.course[i]),
              "pos": i - int(g.course_start[int(g.course[i])]), "side": int(g.side[i]),

@@ -71,6 +71,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
@@ -81,7 +82,7 @@ from knitc.ir.machine import Needle
 from knitc.ir.stitch_graph import INSTRUCTIONS
 from knitc.passes import casting as cast
 from knitc.passes.bed import Pos, Unsupported
-from knitc.passes.query import coords
+from knitc.passes.query import Coords, coords
 from knitc.passes.resolve import ACTION_WORDS, BUILTIN_ACTIONS
 from knitc.passes.steps import Action, continues_in_place, empty_needle_number
 from knitc.resources import stdlib_module
@@ -229,7 +230,7 @@ class _State:
 
     visit: np.ndarray
     first: np.ndarray
-    coords: object
+    coords: Coords
 
     @staticmethod
     def of(gen) -> _State:
@@ -400,7 +401,7 @@ class _Stitch:
         info = StitchInfo(s, int(c.course[s]), int(c.wale[s]), int(c.course_end[s]),
                           int(c.wale_end[s]), int(g.course_gauge[course]), int(g.node[s]))
         other = "b" if pos[0] == "f" else "f"
-        constants: dict[str, Value] = {
+        constants: dict[str, Any] = {  # Values and host objects (Needle, StitchInfo)
             "needle": Needle(pos[0], pos[1]), "opposite": Needle(other, pos[1]), "dir": d,
             "carriers": (ctx.carrier,), "position": int(st.visit[s] - st.first[course]),
             "side": Word("back" if int(g.side[s]) else "front"), "stitch": info,
@@ -509,7 +510,7 @@ class _Stitch:
         if isinstance(v, Word) and v.name in ("left", "right"):
             return 1 if v.name == "right" else -1
         if not isinstance(v, bool) and v in (1, -1):
-            return int(v)  # type: ignore[arg-type]
+            return int(v)
         raise EvalError("E723", f"a direction is 1, -1, `left` or `right`, got {_show(v)}",
                         UNKNOWN_SPAN, "use `dir` (this course's direction) or `-dir`")
 
@@ -570,7 +571,7 @@ class _Stitch:
 
     def _rack(self, r: float) -> None:
         try:
-            self.bed.set_rack(r)  # type: ignore[arg-type]
+            self.bed.set_rack(r)
         except Unsupported:
             raise EvalError("E721", f"racking {show(r)} is beyond the machine's limit of "
                             f"{self.bed.max_rack}", UNKNOWN_SPAN,

@@ -122,7 +122,7 @@ class _Gen:
     bed: Bed
     opts: CodegenOptions
     diags: Diagnostics
-    where_span: object = None
+    where_span: Span | None = None
     """The span of the course being generated, for diagnostics."""
     carrier_of: dict[int, int] = field(default_factory=dict)
     """Yarns in action -> their carrier."""
@@ -221,6 +221,8 @@ def _run(gen: _Gen) -> None:
     ci = 0  # index of the current course in course_bounds
     chunk = np.zeros(0, np.int64)
     primary: dict[int, int] = {}
+    ctx: cast.Ctx | None
+    catch: list[Pos]
     carrier, ctx, catch = -1, None, []
     for sub in np.split(np.arange(t.n_visits), cuts):
         if sub.size == 0:
@@ -254,6 +256,7 @@ def _run(gen: _Gen) -> None:
                 with prog.code_pass("yarn_start"):
                     prog.in_((carrier,), stitch=int(cids[0]), span=ctx.span)
             _presser(gen, int(g.course[cids[0]]))
+        assert ctx is not None  # the first visit begins a course
         with prog.code_pass("shaping"):
             primary.update(_shaping(gen, sub))
         with prog.code_pass("action"):
@@ -468,8 +471,8 @@ def _carry(gen: _Gen, chunk: np.ndarray) -> None:
         if int(g.instr[t]) == STACK and home[t] in landing and bed.where.get(t) == home[t]:
             lifted.append((t, _free_facing(gen, home[t])))
             bed.xfer(home[t], lifted[-1][1], t)
-    for part in rounds:
-        for x, here, dst in sorted(part, key=lambda m: m[2][1] - m[1][1]):
+    for round_moves in rounds:
+        for x, here, dst in sorted(round_moves, key=lambda m: m[2][1] - m[1][1]):
             if x in waiting:
                 bed.set_rack(dst[1] - here[1] if here[0] == "f" else here[1] - dst[1])
                 bed.xfer(waiting[x], dst, x)
@@ -570,7 +573,7 @@ def _precast_cover(gen: _Gen, node: int) -> set[Pos]:
         k, lo, hi = (np.array(c, np.int64) for c in zip(*spans, strict=True))
         when = sc.knit_slices(sched, g.n_stitches)[ids]
         blocked = ((k <= when[:, None]) & (lo <= needle[:, None])
-                   & (needle[:, None] <= hi)).any(axis=1)
+                   & (needle[:, None] <= hi)).any(axis=1)  # type: ignore[assignment]
     return {gen.pos(int(x)) for x in ids[~blocked]} - fetched
 
 
@@ -656,6 +659,7 @@ def _purl(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, number: int,
     own = set(int(p) for p in gen.g.wale_prev[s] if p >= 0)
     if (bed.loops.get(other, 0) and not bed.at.get(other, set()) <= own) \
             or other in gen.course_needles:
+        assert gen.g.origin is not None  # filled in by StitchGraph.__post_init__
         gen.reverse_conflicts[int(gen.g.origin[s])] += 1
         return None
     stays = keep or _purl_continues(gen, s)

@@ -178,6 +178,7 @@ class _Check:
         if not ids.size:
             return
         g = self.g
+        assert g.origin is not None  # filled in by StitchGraph.__post_init__
         for origin, n in sorted(Counter(g.origin[ids].tolist()).items()):
             first = int(ids[g.origin[ids] == origin][0])
             span = g.spans[origin] if origin >= 0 else g.spans[int(g.span[first])]

@@ -38,6 +38,7 @@ MAX_DEPTH = 32
 
 
 def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> StitchGraph:
+    assert g.origin is not None  # filled in by StitchGraph.__post_init__
     run = _Run(skel, g, diags, g.instr.copy(), g.action.copy(), g.origin.copy(), list(g.spans))
     before = [la for la in skel.layers if la.target == "before"]
     after = [la for la in skel.layers if la.target == "after"]
@@ -127,6 +128,7 @@ class _Run:
         inner = QueryEnv(params=env.params, lets={}, values=values)
         self.chain.append(stmt.span)
         outer = self.coords
+        assert outer is not None  # set by __post_init__
         self.coords = relative(self.g, outer, sel)  # the definition counts from its corner
         self.stmts(pdef.body, node, inner, sel, depth + 1)
         self.coords = outer

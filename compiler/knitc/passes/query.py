@@ -52,6 +52,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -90,7 +91,7 @@ class QueryEnv:
 
 
 class QueryError(Exception):
-    def __init__(self, code: str, message: str, span: Span, hint: str | None = None):
+    def __init__(self, code: str, message: str, span: Span | None, hint: str | None = None):
         super().__init__(message)
         self.code, self.message, self.span, self.hint = code, message, span, hint
 
@@ -298,6 +299,7 @@ class _Eval:
         if q is None:
             return self.plain(self.scope.copy())
         if isinstance(q, ast.Binary) and q.op in ("and", "-"):
+            right: np.ndarray | Placement
             left = self.frame(q.left)
             if left.anchored:
                 right = self.query(q.right)
@@ -519,7 +521,7 @@ class _Eval:
         v, uses_end = self.bound(e, None)
         if uses_end or np.ndim(v) != 0:
             raise QueryError("E703", "expected a number", e.span)
-        return float(v)  # type: ignore[arg-type]
+        return float(v)
 
     def nbrs(self) -> np.ndarray:
         if self._nbrs is None:
@@ -570,7 +572,7 @@ class _Eval:
             raise QueryError("E702", "expected a whole number", e.span)
         return int(v)
 
-    def bound(self, e: ast.Node, end: np.ndarray | None) -> tuple[object, bool]:
+    def bound(self, e: ast.Node, end: np.ndarray | None) -> tuple[Any, bool]:
         """Arithmetic on a range bound; returns (value, whether it mentions `end`)."""
         if isinstance(e, ast.Number):
             return e.value, False
@@ -588,7 +590,7 @@ class _Eval:
             return v, False
         if isinstance(e, ast.Unary) and e.op == "-":
             v, u = self.bound(e.operand, end)
-            return -v, u  # type: ignore[operator]
+            return -v, u
         if isinstance(e, ast.Binary) and e.op in ("+", "-", "*", "/"):
             a, ua = self.bound(e.left, end)
             b, ub = self.bound(e.right, end)
@@ -619,10 +621,10 @@ class _Eval:
         step = 1
         if a.step is not None:
             s, uses_end = self.bound(a.step, None)
-            if uses_end or float(s) != math.floor(float(s)) or s < 1:  # type: ignore[operator]
+            if uses_end or float(s) != math.floor(float(s)) or s < 1:
                 raise QueryError("E702", f"a range step must be a positive whole number, "
                                          f"got {s}", a.step.span)
-            step = int(s)  # type: ignore[call-overload]
+            step = int(s)
         m = (idx >= lo) & (idx <= hi)
         if step > 1:
             m &= np.mod(idx - lo, step) == 0

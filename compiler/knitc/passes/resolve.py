@@ -17,6 +17,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, cast
 
 from knitc.diagnostics import Diagnostics, Note
 from knitc.evaluate import BUILTINS, EvalError, Evaluator, Profile, Value, Word, show, type_name
@@ -79,11 +80,11 @@ class _Defs:
         """Defined, or possibly defined by an import that failed (already reported)."""
         return self.kind_of(name) is not None or self.all_lenient or name in self.lenient
 
-    def add(self, d: ast.Node, diags: Diagnostics, *, imported: bool,
-            at: Span | None = None) -> None:
+    def add(self, d: ast.PatternDef | ast.ActionDef | ast.ShaperDef, diags: Diagnostics, *,
+            imported: bool, at: Span | None = None) -> None:
         name = d.name.name
-        table = {ast.PatternDef: self.patterns, ast.ActionDef: self.actions,
-                 ast.ShaperDef: self.shapers}[type(d)]
+        table = cast(dict[str, Any], {ast.PatternDef: self.patterns, ast.ActionDef: self.actions,
+                                      ast.ShaperDef: self.shapers}[type(d)])
         if table.get(name) is d:
             return  # the same definition reached through two imports
         if name in self.origin:
@@ -125,7 +126,7 @@ class _Silent(EvalError):
         super().__init__("E000", "", span)
 
 
-_FAILED = object()
+_FAILED: Any = object()  # stored in `param_values` for a parameter that failed
 
 
 class _Loader:
@@ -153,6 +154,7 @@ class _Loader:
             key, display, text = f"std:{dotted}", f"<stdlib>/{'/'.join(imp.module)}.knit", (
                 res.read_text(encoding="utf-8"))
         else:
+            assert imp.path is not None  # an import names a module or a file
             base = Path(importer).parent if not importer.startswith("<") else Path.cwd()
             path = (base / imp.path).resolve()
             if not path.is_file():
@@ -278,9 +280,9 @@ class _Resolver:
         self._collect_params()
         self._collect_nodes()
         machine = self._machine([i for i in items if isinstance(i, ast.MachineDecl)])
-        params = {name: self._param_value(name, decl.name.span)
+        values = {name: self._param_value(name, decl.name.span)
                   for name, decl in self.param_decls.items()}
-        params = {k: v for k, v in params.items() if v is not None}
+        params = {k: v for k, v in values.items() if v is not None}
         nodes: dict[str, sk.PrimNode] = {}
         for name, decl in self.node_decls.items():
             nodes[name] = self._node(decl, machine)
@@ -292,6 +294,7 @@ class _Resolver:
         self._topology(skel)
         skel.tainted = set(self.tainted)
         self._layers(skel)
+        d: ast.ActionDef | ast.ShaperDef | ast.PatternDef
         for d in self.defs.actions.values():
             self._check_action(d)
         for d in self.defs.shapers.values():
@@ -673,7 +676,7 @@ class _Resolver:
                 except EvalError as err:
                     self._report(err)
                     return None
-                degree = int(node.props["degree"])
+                degree = int(cast(int, node.props["degree"]))
                 if isinstance(i, bool) or not isinstance(i, int | float) or \
                         not float(i).is_integer() or not 0 <= i < degree:
                     self.diags.error("E214", f"`{name}` has branches 0 to {degree - 1}, "

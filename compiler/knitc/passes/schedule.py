@@ -526,7 +526,7 @@ class _Layouts:
 
     def solve_group(self, ks: list[int], edges: list[int]) -> None:
         ctx = self.ctx
-        weight = defaultdict(int)
+        weight: dict[int, int] = defaultdict(int)
         adj: dict[int, list[tuple[int, int]]] = defaultdict(list)
         for e in edges:
             a, b = int(ctx.e_a[e]), int(ctx.e_b[e])

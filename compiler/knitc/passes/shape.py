@@ -24,6 +24,7 @@ columns of one node.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -287,7 +288,7 @@ def _sheet(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     entry, exit_ = visit.entries[0], visit.exits[0]
     tubular = state.tubular(node, entry)
     gauge = state.gauge(node)
-    length = int(node.props["length"])
+    length = int(cast(float, node.props["length"]))
     widths = _widths(node, length, reverse=entry == "top")
     itf_in = skel.interfaces[ItfId(node.name, entry)]
     itf_out = skel.interfaces[ItfId(node.name, exit_)]
@@ -301,7 +302,7 @@ def _sheet(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     close_out = itf_out.state == "closed" or (
         partner_out is not None and tubular
         and binding(skel, ItfId(node.name, exit_), partner_out) == "close"
-        and itf_out.size > skel.interfaces[partner_out].size)
+        and cast(int, itf_out.size) > cast(int, skel.interfaces[partner_out].size))
     if close_out and tubular and length > 1:
         widths[-1] = widths[-2]
     max_w = max(widths)
@@ -388,6 +389,8 @@ def _zigzag(state: _State, idx: int, w: int, off: int, gauge: int, ret: bool) ->
 def _link(state: _State, node: PrimNode, a: Course, b: Course) -> None:
     """Wales between consecutive courses of one sheet or tube."""
     acc = state.acc
+    bed: int | None
+    key: tuple[str, int] | tuple[str, int, int, int]
     if (b.collapsed and a.circular) or \
             (a.collapsed and b.circular):
         full, flat = (a, b) if b.collapsed else (b, a)
@@ -516,11 +519,11 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     G = per_bed * (2 if tubular else 1)
     cols_of = _cols(bottom, per_bed, tubular)
 
-    rows = int(node.props["rows"])
+    rows = int(cast(float, node.props["rows"]))
     prof = node.props["width"]
     assert isinstance(prof, Profile)
     layout = node.props.get("layout", "auto")
-    pos = (0.25 if tubular else 0.5) if layout == "auto" else float(layout)
+    pos = (0.25 if tubular else 0.5) if layout == "auto" else float(cast(float, layout))
     center = round_half_up(pos * (G - 1))
     alignment = str(node.props.get("alignment", "center"))
     short: list[list[int]] = []
@@ -556,6 +559,9 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     inside = set(first) - set(ends)
     if y in ends:  # the yarn is already at an end of the first short row
         best = (d, [], y)
+    walk: list[int] | None
+    cols: list[int] | None
+    c: int | None
     for direction, inclusive in ((d, False), (-d, True)):
         if best is not None and not best[1]:
             break
@@ -569,6 +575,7 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
                 break
             walk.append(c)
         if walk is not None and (best is None or len(walk) < len(best[1])):
+            assert c is not None  # `walk` is None if a step returned None
             best = (direction, walk, c)
     lead: list[int] = []  # a continuity course before the first row (yarn inside it)
     if y in inside:
@@ -611,6 +618,7 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
             c = y
             while c != far:
                 c = step(c, d)
+                assert c is not None  # `far` lies ahead in direction d, on the bed
                 cur.append(c)
             seqs.append(nxt[::-1] if far == nxt[-1] else nxt)
         else:  # walk back along the current row to the next row's end
@@ -679,7 +687,7 @@ def _branch_layout(state: _State, node: PrimNode, base_per_bed: int, tubular: bo
     """(offset on the base ring, per-bed width, tubular, laid around the ring) of every
     branch: a flat branch of an unfolded split lies along the base ring from its offset."""
     skel = state.skel
-    degree = int(node.props["degree"])
+    degree = int(cast(int, node.props["degree"]))
     itfs = [skel.interfaces[ItfId(node.name, f"branches/{i}")] for i in range(degree)]
     tubes = [(itf.sides or (2 if tubular and node.props["folded"] else 1)) == 2 and tubular
              for itf in itfs]  # on a flat base every branch lies flat
@@ -785,7 +793,7 @@ def _split(state: _State, node: PrimNode, visit: NodeVisit) -> None:
             last_producer = path
     last_idx = paths.index(last_producer) if last_producer else len(paths) - 1
     last = branch_courses[last_idx]
-    knitted_last = state.exit_course.get(state.partner.get(ItfId(node.name, paths[last_idx])))
+    knitted_last = _incoming(state, node, paths[last_idx])
     end_id = int(knitted_last.ids[-1]) if knitted_last is not None else int(last.ids[-1])
     hit = np.nonzero(last.ids == end_id)[0]
     at = int(hit[0]) if hit.size else last.width - 1  # a spread branch: its own course

@@ -62,6 +62,7 @@ from __future__ import annotations
 import weakref
 from collections import defaultdict
 from dataclasses import dataclass, field
+from typing import Any, cast
 
 from knitc.passes.bed import BEDS, SLIDERS, Bed, Pos, Unsupported
 
@@ -144,7 +145,7 @@ def _carriers(bed: Bed) -> dict[int, tuple[float, Pos | None]]:
     ref, t = _TRACKS.get(key, (None, None))
     if ref is None or ref() is not bed.prog or t is None:
         t = _CarrierTrack()
-        _TRACKS[key] = (weakref.ref(bed.prog, lambda _r, k=key: _TRACKS.pop(k, None)), t)
+        _TRACKS[key] = (weakref.ref(bed.prog, lambda _r: _TRACKS.pop(key, None)), t)
     ops = bed.prog.ops
     for op in ops[t.seen:]:
         if op.kind in ("in", "inhook"):
@@ -266,7 +267,7 @@ class _Planner:
                 self.folded = []
                 self._cycle()
         self._gauge(gauge)
-        self.carriers = {c: [x, a] for c, (x, a) in _carriers(bed).items()}
+        self.carriers: dict[int, list[Any]] = {c: [x, a] for c, (x, a) in _carriers(bed).items()}
         self.steps: list[Step] = []
         self.at: dict[Pos, list[_Unit]] = defaultdict(list)
         for u in self.units:
@@ -389,7 +390,7 @@ class _Planner:
 
     def items(self, bed: str) -> list[tuple[int, _Unit | None]]:
         """Everything on a bed's hooks, left to right: units and unmoving loops (None)."""
-        out = [(p[1], None) for p in self.fixed if p[0] == bed]
+        out: list[tuple[int, _Unit | None]] = [(p[1], None) for p in self.fixed if p[0] == bed]
         out += [(u.pos[1], u) for u in self.units if u.pos[0] == bed]
         out.sort(key=lambda it: it[0])
         return out
@@ -458,7 +459,7 @@ class _Planner:
         pending = list(seq)
         while pending:
             r = pending[0][3]
-            rest = []
+            rest: list[tuple[_Unit, Pos, Pos, int]] = []
             for m in pending:
                 u, src, dst, mr = m
                 if mr == r and u.pos == src and (not rest or self.free_at(dst)
@@ -588,7 +589,7 @@ class _Planner:
 
     # -- Shift: loops move along their bed -------------------------------------------------------
 
-    def waypoint(self, u: _Unit, ext: dict[str, tuple]) -> int:
+    def waypoint(self, u: _Unit, ext: dict[str, tuple | None]) -> int:
         """Where a unit heads along its bed this round: its needle, or for a unit that must
         roll and is the extreme of its bed, far enough towards the end that a landing beyond
         the other bed's extreme loop comes within the racking limit."""
@@ -677,11 +678,11 @@ class _Planner:
                 side = 1 if first[i] > x else -1
                 beyond = range(i + 1, len(items)) if side > 0 else range(i)
                 more |= {j for j in beyond if j not in pushed and items[j][1] is not None
-                         and items[j][1].roll * side > 0}
+                         and cast(_Unit, items[j][1]).roll * side > 0}
             if not more:
                 return want
             for j in more:
-                aim[j] = self.hi if items[j][1].roll > 0 else self.lo
+                aim[j] = self.hi if cast(_Unit, items[j][1]).roll > 0 else self.lo
             pushed |= more
 
     def relax(self, bed: str, items: list[tuple[int, _Unit | None]], want: list[int]) -> None:

@@ -224,7 +224,7 @@ def _bodies(node: ast.Node) -> list[_Body]:
         case ast.MachineDecl():
             return [(id(node), s.start, s.end, node.props)]
         case ast.ItfStmt() if node.props is not None:
-            head = node.closing if node.closing is not None else node.itf
+            head: ast.Node = node.closing if node.closing is not None else node.itf
             return [(id(node), head.span.end, s.end, node.props)]
         case ast.PatternLayer():
             return [(id(node), node.target.span.end, s.end, node.body)]
@@ -286,7 +286,7 @@ class _Comments:
 
     def _continues(self, node: ast.Node, c: ast.Comment) -> bool:
         """Is `c` the next line of the trailing comment of `node`, indented past `node`?"""
-        above = self.continued.get(id(node)) or self.trailing.get(id(node))
+        above = self.continued.get(id(node)) or self.trailing.get(id(node)) or []
         return bool(above) and (
             c.span.line == above[-1].span.end_line + 1 and c.span.column > node.span.column
         )

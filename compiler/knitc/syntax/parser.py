@@ -92,6 +92,7 @@ class _ContextualKeywords:
     def lex(self, lexer_state, parser_state):
         table = parser_state.parse_conf.parse_table
         for tok in self.inner.lex(lexer_state, parser_state):
+            assert tok.end_pos is not None  # the lexer sets every token's positions
             if tok.type in _KEYWORD_TYPES and (
                     not _can_shift(table, parser_state.state_stack, tok.type)
                     or _dot_next(_text(lexer_state), tok.end_pos)):
@@ -161,6 +162,7 @@ class _ToAst(Transformer):
         return self.source.span(meta.start_pos, meta.end_pos)
 
     def _tok(self, tok: Token) -> Span:
+        assert tok.start_pos is not None and tok.end_pos is not None
         return self.source.span(tok.start_pos, tok.end_pos)
 
     def _ident(self, tok: Token) -> ast.Ident:
@@ -656,6 +658,7 @@ def _report(err: UnexpectedInput, source: SourceFile, diags: Diagnostics,
         return
     assert isinstance(err, UnexpectedCharacters)
     pos = err.pos_in_stream
+    assert pos is not None  # always set for UnexpectedCharacters
     char = source.text[pos] if pos < len(source.text) else ""
     span = source.span(pos, pos + 1)
     if source.text.startswith('"""', pos) or source.text.startswith('"""', pos - 2):
@@ -701,7 +704,8 @@ def parse_source(source: SourceFile, diags: Diagnostics) -> ast.Module | None:
             return None
         raise
     comment_nodes = tuple(
-        ast.Comment(str(c), span=source.span(c.start_pos, c.end_pos)) for c in comments)
+        ast.Comment(str(c), span=source.span(c.start_pos, c.end_pos))  # type: ignore[arg-type]
+        for c in comments)
     return ast.Module(module.items, comment_nodes, span=module.span)
 
 
