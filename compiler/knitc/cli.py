@@ -16,7 +16,15 @@ import traceback
 
 from knitc import __version__
 from knitc.diagnostics import Diagnostics
-from knitc.driver import EMITTABLE, STAGES, TARGETS, compile_file, emit_json, timing_table
+from knitc.driver import (
+    EMITTABLE,
+    STAGES,
+    TARGETS,
+    compile_file,
+    emit_json,
+    emit_text,
+    timing_table,
+)
 
 EXAMPLES = """\
 examples:
@@ -29,6 +37,8 @@ examples:
   knitc -D finger_len=26 check examples/glove.knit
   knitc --emit skeleton examples/sock.knit      print the resolved skeleton IR as JSON
   knitc --emit ast -o sock.ast.json examples/sock.knit
+  knitc --emit trace --format text examples/tube.knit
+                                                the yarn path, one visit per line
   knitc --until schedule --time-passes examples/sweater.knit
                                                 run up to a stage, time every stage
   knitc fmt examples/sweater.knit               print the canonical form
@@ -62,6 +72,9 @@ def _main_parser() -> argparse.ArgumentParser:
     p.add_argument("--emit", metavar="IR", choices=EMITTABLE,
                    help="print one intermediate representation as JSON: "
                         + ", ".join(EMITTABLE))
+    p.add_argument("--format", choices=["json", "text"], default="json",
+                   help="--emit as stable JSON (default) or as a compact text form, one "
+                        "record per line")
     p.add_argument("--until", metavar="STAGE", choices=[s.name for s in STAGES],
                    help="run the pipeline up to this stage, report its diagnostics and "
                         "write nothing: " + ", ".join(s.name for s in STAGES))
@@ -171,7 +184,11 @@ def _cmd_compile(args: argparse.Namespace) -> int:
         return 1
     if args.until:
         return 0
-    output = emit_json(result, args.emit) if args.emit else result.output
+    if args.emit:
+        output: str | bytes | None = (emit_text if args.format == "text" else emit_json)(
+            result, args.emit)
+    else:
+        output = result.output
     assert output is not None
     if not to_stdout:
         write_atomic(args.output, output)

@@ -23,7 +23,7 @@ import json
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 from knitc.diagnostics import Diagnostics, Note
 from knitc.ir import machine as mp
@@ -34,6 +34,8 @@ from knitc.ir import stitch_graph as sg
 from knitc.ir import trace as tr
 from knitc.source import SourceFile
 from knitc.syntax import ast
+
+T = TypeVar("T")
 
 
 class InternalError(Exception):
@@ -72,13 +74,16 @@ class Result:
 class Stage:
     """One step of the pipeline: `run` computes its IR from the earlier ones in the
     `Result` and stores it (False: it reported errors, stop); `verify` lists the IR's
-    broken invariants (empty when valid); `dump` is its stable JSON (`--emit NAME`)."""
+    broken invariants (empty when valid); `dump` is its stable JSON (`--emit NAME`) and
+    `text` its compact text form (`--format text`; by default the dump one record per
+    line, `ir.text`)."""
 
     name: str
     run: Callable[[Result], bool]
     verify: Callable[[Result], list[str]] | None = None
     dump: Callable[[Result], Any] | None = None
     doc: str = ""
+    text: Callable[[Result], str] | None = None
 
 
 # ---- the stages, in pipeline order ----------------------------------------------------------
@@ -178,26 +183,34 @@ def _dat(r: Result) -> bool:
     return True
 
 
-def _has(*names: str) -> Callable[[Result], bool]:
-    return lambda r: all(getattr(r, n) is not None for n in names)
+def _ast_text(r: Result) -> str:
+    """The AST's text form is the canonical source (`knitc fmt`)."""
+    from knitc.syntax.fmt import format_module
+    return format_module(_the(r.module))
+
+
+def _the(ir: T | None) -> T:
+    """An earlier stage's IR, which the pipeline order guarantees is there."""
+    assert ir is not None, "a stage ran before the stage it depends on"
+    return ir
 
 
 STAGES: tuple[Stage, ...] = (
-    Stage("ast", _parse, None, lambda r: ast.to_json(r.module),
-          "the syntax tree, every node with its source span"),
-    Stage("skeleton", _resolve, None, lambda r: sk.to_json(r.skeleton),
+    Stage("ast", _parse, None, lambda r: ast.to_json(_the(r.module)),
+          "the syntax tree, every node with its source span", text=_ast_text),
+    Stage("skeleton", _resolve, None, lambda r: sk.to_json(_the(r.skeleton)),
           "the primitives with resolved parameters, interfaces and connections"),
-    Stage("stitch-graph", _stitch_graph, lambda r: sg.verify(r.graph),
-          lambda r: sg.to_json(r.graph),
+    Stage("stitch-graph", _stitch_graph, lambda r: sg.verify(_the(r.graph)),
+          lambda r: sg.to_json(_the(r.graph)),
           "stitches, courses and wales, with pattern instructions and actions"),
-    Stage("trace", _trace, lambda r: tr.verify(r.graph, r.trace),
-          lambda r: tr.to_json(r.graph, r.trace), "the yarn path through every stitch"),
-    Stage("slices", _slice, lambda r: sl.verify(r.graph, r.trace, r.slices),
-          lambda r: sl.to_json(r.graph, r.slices), "the trace cut into bed slices"),
-    Stage("schedule", _schedule, lambda r: sc.verify(r.graph, r.schedule),
-          lambda r: sc.to_json(r.graph, r.schedule), "each slice's layout and needle offset"),
-    Stage("machine", _generate, lambda r: mp.verify(r.program),
-          lambda r: mp.to_json(r.program),
+    Stage("trace", _trace, lambda r: tr.verify(_the(r.graph), _the(r.trace)),
+          lambda r: tr.to_json(_the(r.graph), _the(r.trace)), "the yarn path through every stitch"),
+    Stage("slices", _slice, lambda r: sl.verify(_the(r.graph), _the(r.trace), _the(r.slices)),
+          lambda r: sl.to_json(_the(r.graph), _the(r.slices)), "the trace cut into bed slices"),
+    Stage("schedule", _schedule, lambda r: sc.verify(_the(r.graph), _the(r.schedule)),
+          lambda r: sc.to_json(_the(r.graph), _the(r.schedule)), "each slice's layout and needle offset"),
+    Stage("machine", _generate, lambda r: mp.verify(_the(r.program)),
+          lambda r: mp.to_json(_the(r.program)),
           "machine operations, each with its stitch and source line (simulated)"),
 )
 """The IR stages in pipeline order."""
@@ -287,12 +300,26 @@ def compile_file(path: str, **kw: Any) -> Result:
 
 def emit_json(result: Result, name: str) -> str:
     """The stable JSON text of one IR (`knitc --emit NAME`)."""
+    return json.dumps(_dump(result, name), indent=1, ensure_ascii=True, allow_nan=False) + "\n"
+
+
+def emit_text(result: Result, name: str) -> str:
+    """The compact text form of one IR (`knitc --emit NAME --format text`)."""
+    s = stage(name)
+    if s.text is not None:
+        _dump(result, name)  # the same checks
+        return s.text(result)
+    from knitc.ir.text import render
+    return render(_dump(result, name))
+
+
+def _dump(result: Result, name: str) -> Any:
     s = stage(name)
     if s.dump is None:
         raise ValueError(f"stage {name!r} has no dump")
     if _index(result.stage_reached) < _index(name):
         raise ValueError(f"the compilation stopped before stage {name!r}")
-    return json.dumps(s.dump(result), indent=1, ensure_ascii=True, allow_nan=False) + "\n"
+    return s.dump(result)
 
 
 def timing_table(result: Result) -> str:
