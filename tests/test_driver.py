@@ -72,3 +72,19 @@ def test_cli_output_dash_is_standard_output(tmp_path, capsys, monkeypatch):
     assert main([str(f), "-o", "-"]) == 0
     out, _ = capsys.readouterr()
     assert out.startswith(";!knitout-2") and not (tmp_path / "-").exists()
+
+
+def test_the_facade_is_the_pipeline_and_imports_lazily():
+    import subprocess
+    import sys
+
+    import knitc
+    assert knitc.compile_source is compile_source and knitc.STAGES is STAGES
+    assert set(knitc.__all__) >= {"compile_source", "compile_file", "resume", "StitchGraph",
+                                  "MachineProgram", "Skeleton", "Trace", "Schedule"}
+    assert set(knitc.__all__) == {"__version__", *knitc._PUBLIC}
+    for name in knitc.__all__:
+        getattr(knitc, name)
+    probe = "import sys, knitc; print('numpy' in sys.modules, 'lark' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    assert out.stdout.split() == ["False", "False"]
