@@ -87,7 +87,7 @@ class Graph:
             node_names=list(self.nodes), spans=[None], node=node, course=course, side=side,
             needle=needle, cprev=cprev, cnext=cnext, wale_prev=wp, wale_next=wn,
             instr=np.zeros(n, np.uint8), action=np.full(n, -1, np.int16),
-            yarn=np.ones(n, np.uint16), span=np.zeros(n, np.int32), course_start=start,
+            span=np.zeros(n, np.int32), course_start=start,
             course_len=np.array([c[1] for c in self.courses], np.int32),
             course_node=np.array([c[0] for c in self.courses], np.int32),
             course_circular=np.array([c[2] for c in self.courses], bool),
