@@ -281,7 +281,7 @@ def _check_pull(g: StitchGraph, fab: Fabric, s: int, lp: int, front: bool,
         return
     purl = int(g.instr[s]) in REVERSED
     if purl and g.origin is not None and int(g.origin[s]) >= 0 \
-            and g.spans[int(g.origin[s])] in plain_ok:
+            and g.spans[int(g.origin[s])].chain()[0] in plain_ok:  # the designer's line
         purl = None  # either way
     if purl is None:
         return

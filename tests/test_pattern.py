@@ -127,3 +127,19 @@ def test_an_applied_pattern_counts_from_the_corner_of_its_selection():
     rib = (c.wale >= 3) & (c.wale <= 8) & (c.course <= 3)
     assert np.array_equal((g.instr == P) & rib, rib & ((c.wale - 3) % 2 == 1))
     assert np.array_equal((g.instr == P) & (c.course >= 5), c.course == 6)
+
+
+def test_a_warning_inside_nested_definitions_points_at_the_designers_line_with_each_step():
+    from knitc.driver import compile_source
+    src = ("pattern inner() { set T where courses(end) }\n"
+           "pattern outer() { apply inner() }\n"
+           "sheet s { length: 3  width: 4 }\n"
+           "pattern s { apply outer() }\n")
+    r = compile_source(src, "n.knit", until="stitch-graph")
+    (w,) = [d for d in r.diagnostics if d.code == "W708"]
+    assert (w.span.line, w.span.parent) == (4, None)  # the designer's `apply outer()`
+    assert [(n.span.line, n.message) for n in w.notes] == [
+        (2, "written here, in the applied pattern"), (1, "written here, in the applied pattern")]
+    g = r.graph
+    chained = g.spans[int(g.origin[g.course_ids(2)[0]])]
+    assert [s.line for s in chained.chain()] == [4, 2, 1]  # one mechanism: Span.parent

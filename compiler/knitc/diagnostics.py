@@ -130,6 +130,16 @@ def _excerpt(span: Span, sources: dict[str, SourceFile], gutter: int) -> list[st
     return [f"{span.line:>{gutter}} | {expanded}\n", f"{pad} | {caret}\n"]
 
 
+def at_designer(span: Span, note: str = "written here, in the applied pattern"
+                ) -> tuple[Span, list[Note]]:
+    """Where to report a finding about code expanded from the designer's line: at that line
+    (the outermost span of the chain), with a note at each definition it expanded through.
+    (`render` prints a chained span the other way, innermost first and "while expanding"
+    each parent: for errors inside a definition rather than about its use.)"""
+    outer, *inner = span.chain()
+    return outer, [Note(note, s) for s in inner]
+
+
 def render(d: Diagnostic, sources: dict[str, SourceFile]) -> str:
     """Render one diagnostic in the compiler style the CLI prints."""
     where = f"{d.span}: " if d.span is not None else "knitc: "

@@ -34,6 +34,25 @@ class Span:
         return Span(self.file, self.line, self.column, self.end_line, self.end_column,
                     self.start, self.end, parent)
 
+    def chain(self) -> tuple[Span, ...]:
+        """The spans this one was expanded from and itself, outermost (the designer's line)
+        first, each without its parent."""
+        out: list[Span] = []
+        s: Span | None = self
+        while s is not None:
+            out.append(s.with_parent(None))
+            s = s.parent
+        return tuple(reversed(out))
+
+    @staticmethod
+    def expanded(spans: tuple[Span, ...]) -> Span:
+        """The innermost of `spans` (outermost first) with the others as its parents."""
+        chained: Span | None = None
+        for s in spans:
+            chained = s.with_parent(chained)
+        assert chained is not None
+        return chained
+
     def to_json(self) -> list[object]:
         """Compact, stable form for IR dumps: [file, line, col, end_line, end_col]."""
         return [self.file, self.line, self.column, self.end_line, self.end_column]

@@ -63,11 +63,10 @@ class StitchGraph:
     origin: np.ndarray | None = None
     """int32 per stitch: index into `spans` of the pattern statement that last wrote the
     stitch's `instr` or `action` (-1: none). Pattern warnings point at that line, not at the
-    node the stitch belongs to."""
-
-    origin_via: dict[int, tuple[Span, ...]] = field(default_factory=dict)
-    """For an `origin` inside applied pattern definitions: the statements it expanded
-    through, innermost last (the `origin` itself is the designer's own statement)."""
+    node the stitch belongs to. A statement inside applied definitions is kept as its span
+    with the `apply` statements it was expanded from as parents (`Span.parent`), so a
+    warning can point at the designer's line with notes into the definitions
+    (`diagnostics.at_designer`)."""
 
     def __post_init__(self) -> None:
         if self.origin is None:

@@ -314,7 +314,7 @@ def _warn_increase(gen, s: int) -> None:
 
 def _origin(gen, s: int) -> Span | None:
     k = int(gen.g.origin[s])
-    return gen.g.spans[k] if k >= 0 else gen.bed.span(s)
+    return gen.g.spans[k].chain()[0] if k >= 0 else gen.bed.span(s)
 
 
 # ---- the interpreter: needles and stitch records as values ------------------------------------

@@ -45,7 +45,7 @@ from knitc.ir.stitch_graph import COURSE_KINDS, INSTRUCTIONS, StitchGraph
 from knitc.passes import actions
 from knitc.passes import casting as cast
 from knitc.passes.bed import BEDS, Bed, Pos, Unsupported
-from knitc.passes.instructions import CROSSES, MOVES, cables, neighbour, right_left, via_notes
+from knitc.passes.instructions import CROSSES, MOVES, cables, neighbour, origin_site, right_left
 from knitc.passes.steps import Action, continues_in_place, empty_needle_number, run_actions
 from knitc.passes.transfers import move
 from knitc.source import Span
@@ -183,10 +183,10 @@ def generate(g: StitchGraph, sched: sc.Schedule, t: tr.Trace, *, machine: Machin
                          "(`machine { racking: ... }`) or shape more gradually")
         return None
     for origin, n in sorted(gen.reverse_conflicts.items()):
+        span, notes = origin_site(g, origin)
         diags.warning("W603", f"{n} reverse stitch(es) are knitted plain: the needle facing "
                       "them holds another loop (on a full-gauge tube, the other side's "
-                      "fabric)", g.spans[origin] if origin >= 0 else None,
-                      notes=via_notes(g, origin),
+                      "fabric)", span, notes=notes,
                       hint="knit this node in half gauge (`gauge: half`) to leave the "
                            "facing needles empty for reverse stitches")
     for node, n in sorted(gen.split_fallbacks.items()):

@@ -37,8 +37,9 @@ from collections import Counter
 
 import numpy as np
 
-from knitc.diagnostics import Diagnostics, Note
+from knitc.diagnostics import Diagnostics, Note, at_designer
 from knitc.ir.stitch_graph import INSTRUCTIONS, StitchGraph
+from knitc.source import Span
 
 K, P, T, M = (INSTRUCTIONS.index(x) for x in "KPTM")
 MOVES = {INSTRUCTIONS.index(m): (1 if m[1] == "R" else -1) * int(m[2])
@@ -105,9 +106,12 @@ def right_left(g: StitchGraph) -> tuple[np.ndarray, np.ndarray]:
     return right, left
 
 
-def via_notes(g: StitchGraph, origin: int) -> list[Note]:
-    """Where a pattern statement inside applied definitions came from ("while applying")."""
-    return [Note("written here, in the applied pattern", sp) for sp in g.origin_via.get(origin, ())]
+def origin_site(g: StitchGraph, origin: int) -> tuple[Span | None, list[Note]]:
+    """Where to report about stitches a pattern statement wrote (`g.origin`): the
+    designer's line, with notes into the applied definitions it went through."""
+    if origin < 0:
+        return None, []
+    return at_designer(g.spans[origin])
 
 
 def neighbour(right: np.ndarray, left: np.ndarray, s: int, k: int) -> int:
@@ -181,8 +185,9 @@ class _Check:
         assert g.origin is not None  # filled in by StitchGraph.__post_init__
         for origin, n in sorted(Counter(g.origin[ids].tolist()).items()):
             first = int(ids[g.origin[ids] == origin][0])
-            span = g.spans[origin] if origin >= 0 else g.spans[int(g.span[first])]
-            self.diags.warning(code, f"{n} {what}", span, hint=hint, notes=via_notes(g, origin))
+            span, notes = origin_site(g, origin)
+            self.diags.warning(code, f"{n} {what}", span or g.spans[int(g.span[first])],
+                               hint=hint, notes=notes)
         self.instr[mask] = K
 
     def irregular(self) -> None:

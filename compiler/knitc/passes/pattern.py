@@ -31,6 +31,7 @@ from knitc.ir import skeleton as sk
 from knitc.ir.stitch_graph import INSTRUCTIONS, StitchGraph
 from knitc.passes import actions, drawing
 from knitc.passes.query import Coords, QueryEnv, coords, evaluate_query, relative
+from knitc.source import Span
 from knitc.syntax import ast
 
 MAX_DEPTH = 32
@@ -53,7 +54,7 @@ def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> Sti
         env = run.envs.setdefault(layer.origin, QueryEnv(params=dict(skel.params), lets={}))
         run.stmts((layer.stmt,), node, env, None, 0)
     return dataclasses.replace(g, instr=run.instr, action=run.action, origin=run.origin,
-                               spans=run.spans, origin_via={**g.origin_via, **run.via})
+                               spans=run.spans)
 
 
 @dataclasses.dataclass
@@ -71,23 +72,19 @@ class _Run:
     span_ids: dict = dataclasses.field(default_factory=dict)
     chain: list = dataclasses.field(default_factory=list)
     """The `apply` statements being expanded, outermost first."""
-    via: dict = dataclasses.field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.coords = coords(self.g)  # once for every query of every layer
 
-    def mark(self, mask: np.ndarray, span) -> None:
-        """Record `span` (a pattern statement) as the origin of the stitches in `mask`.
-        Inside applied definitions the origin is the designer's outermost `apply`, and the
-        statements it expanded through (down to `span`) are kept as `origin_via`."""
-        outer = self.chain[0] if self.chain else span
-        via = (*self.chain[1:], span) if self.chain else ()
-        k = self.span_ids.get((outer, via))
+    def mark(self, mask: np.ndarray, span: Span) -> None:
+        """Record `span` (a pattern statement) as the origin of the stitches in `mask`;
+        inside applied definitions, chained to the `apply` statements it expanded from
+        (`Span.parent`), the designer's own `apply` outermost."""
+        chain = (*self.chain, span)
+        k = self.span_ids.get(chain)
         if k is None:
-            k = self.span_ids[(outer, via)] = len(self.spans)
-            self.spans.append(outer)
-            if via:
-                self.via[k] = via
+            k = self.span_ids[chain] = len(self.spans)
+            self.spans.append(Span.expanded(chain))
         self.origin[mask] = k
 
     def stmts(self, body, node: int | None, env: QueryEnv, within: np.ndarray | None,
