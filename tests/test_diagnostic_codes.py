@@ -1,0 +1,76 @@
+"""Every diagnostic code knitc can produce has a golden case, and the reference lists it.
+
+The codes are read from the compiler's source (every `"E123"` / `"W123"` literal); a golden
+case is an expected diagnostic in `tests/golden/diagnostics/*.expected` or a FileCheck
+line in `tests/filecheck/` (`error[E123]`). A new code without a case fails here.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).parent.parent
+CODE = re.compile(r"[\"']([EW]\d{3})[\"']")
+SHOWN = re.compile(r"(?:error|warning)\[([EW]\d{3})\]")
+
+WITHOUT_GOLDEN_CASE: dict[str, str] = {
+    "E000": "not a diagnostic: the resolver's `_Silent` marker for an evaluation that failed "
+            "on an error already reported, never printed (golden 110_param_cycle and "
+            "112_param_self_reference go through it and show each mistake once)",
+    "E317": "the resolver reports an assignment to a context name (`needle = ...`) as E222 "
+            "before any action runs, so the interpreter's own check cannot fire; "
+            "tests/test_interp.py::test_constants_are_readable_not_assignable",
+    "E532": "defensive: a joint's short rows are contiguous, so the walk from where the yarn "
+            "arrives always reaches an end of the first row; no design found reaches it "
+            "(tests/test_props_shape.py filters it, no unit test triggers it)",
+    # knitc's simulation of its own machine program (passes/simulate.py) runs only on what
+    # code generation made, which is clean by construction; `k2dat` does not simulate.
+    "E801": "simulator, only a code-generation bug: tests/test_simulate.py::test_misaligned_xfer",
+    "E802": "simulator, only a code-generation bug: tests/test_simulate.py::test_carrier_not_in",
+    "E803": "simulator, only a code-generation bug: "
+            "tests/test_simulate.py::test_loops_and_carriers_left",
+    "E804": "simulator, only a code-generation bug: "
+            "tests/test_simulate.py::test_loops_and_carriers_left",
+    "E805": "simulator, only a code-generation bug: tests/test_simulate.py::test_hook_rules",
+    "E806": "simulator, only a code-generation bug (E601/E722 stop designs first): "
+            "tests/test_simulate.py::test_needle_range_and_sliders",
+    "E807": "simulator, only a code-generation bug (E721/E723 stop actions first): "
+            "tests/test_simulate.py::test_racking",
+    "E808": "simulator, only a code-generation bug: "
+            "tests/test_simulate.py::test_needle_range_and_sliders",
+    "E809": "simulator, only a code-generation bug: tests/test_simulate.py::test_carrier_state",
+    "E810": "simulator, a malformed op (the machine verifier fails first, an internal error): "
+            "tests/test_simulate.py::test_malformed_ops_are_reported_and_skipped",
+    "W802": "simulator: code generation (actions too) makes a knit on an empty needle a tuck; "
+            "tests/test_simulate.py::test_knit_on_empty",
+}
+"""Codes no input can produce through the CLI, each with the reason (and where it is tested
+instead)."""
+
+
+def compiler_codes() -> set[str]:
+    codes: set[str] = set()
+    for path in (ROOT / "compiler" / "knitc").rglob("*.py"):
+        codes |= set(CODE.findall(path.read_text()))
+    return codes
+
+
+def golden_codes() -> set[str]:
+    seen: set[str] = set()
+    for path in (ROOT / "tests" / "golden").rglob("*.expected"):
+        seen |= set(SHOWN.findall(path.read_text()))
+    for path in (ROOT / "tests" / "filecheck").rglob("*"):
+        if path.is_file():
+            seen |= set(SHOWN.findall(path.read_text()))
+    return seen
+
+
+def test_every_code_has_a_golden_case():
+    missing = sorted(compiler_codes() - golden_codes() - set(WITHOUT_GOLDEN_CASE))
+    assert not missing, f"codes without a golden case: {', '.join(missing)}"
+
+
+def test_the_exceptions_are_real_codes_without_a_case():
+    stale = sorted(set(WITHOUT_GOLDEN_CASE) - (compiler_codes() - golden_codes()))
+    assert not stale, f"listed as without a golden case but not: {', '.join(stale)}"
