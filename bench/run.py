@@ -36,7 +36,7 @@ out = {"seconds": round(dt, 3), "stage": stage, "stitches": stitches,
        "knitout_lines": text.count("\n"), "peak_mb": peak}
 if r.program is not None and len(sys.argv) > 2:  # machine time, after the timing
     from knitc.backends.dat_write import SOFT_MISS, XFER_BF, XFER_FB, to_dat
-    from knitc.ir.machine import estimate_passes
+    from knitc.codegen.machine import estimate_passes
     ops = r.program.ops
     rows = {"knit": 0, "xfer": 0, "move": 0}
     for p in to_dat(r.program).passes:

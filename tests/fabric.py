@@ -53,11 +53,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from knitc.backends.knitout import knitout_lines
+from knitc.codegen.machine import MachineProgram
 from knitc.driver import Result
-from knitc.ir import schedule as sc
-from knitc.ir.machine import MachineProgram
-from knitc.ir.stitch_graph import INSTRUCTIONS, StitchGraph
-from knitc.passes.instructions import CROSSES, MOVES, cables, neighbour, right_left
+from knitc.patterning.instructions import CROSSES, MOVES, cables, neighbour, right_left
+from knitc.scheduling import schedule as sc
+from knitc.shaping.stitch_graph import INSTRUCTIONS, StitchGraph
 
 P, T, M = (INSTRUCTIONS.index(x) for x in "PTM")
 REVERSED = {P} | {k for k, name in enumerate(INSTRUCTIONS) if name[0] == "B"}
@@ -339,7 +339,7 @@ def check_fabric(result: Result, fab: Fabric, *, dropped_ok: Iterable[int] = ())
 
 def _not_cast_off(result: Result) -> set[int]:
     """The ending stitches of courses whose cast-off is `none`: the design drops them."""
-    from knitc.passes.codegen import options_from_skeleton
+    from knitc.codegen.generate import options_from_skeleton
 
     g, skel = result.graph, result.skeleton
     assert g is not None and skel is not None
@@ -483,7 +483,7 @@ def describe_all(mismatches: list[Mismatch], limit: int = 25) -> str:
 
 def _source_of(i: int, r: Result) -> str:
     """A design's name in a failure: its source text and `-D` values, to reproduce it."""
-    from knitc.syntax.fmt import format_expr
+    from knitc.frontend.fmt import format_expr
 
     text = next((f.text for p, f in r.diagnostics.sources.items()
                  if not p.startswith("<")), "")

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from knitc.diagnostics import Diagnostics
-from knitc.ir.stitch_graph import StitchGraph
+from knitc.shaping.stitch_graph import StitchGraph
 
 MARGIN = 2
 """Needles left free at the left end of the bed and between independent pieces."""

@@ -18,8 +18,8 @@ from __future__ import annotations
 
 from hypothesis import strategies as st
 
-from knitc.syntax import ast
-from knitc.syntax.fmt import format_expr
+from knitc.frontend import ast
+from knitc.frontend.fmt import format_expr
 
 # The 17 pattern instructions; those that look like names are kept out of generated names.
 INSTRUCTIONS = tuple("K P T M S FR1 FR2 FL1 FL2 BR1 BR2 BL1 BL2 XR+ XR- XL+ XL-".split())

@@ -1,4 +1,4 @@
-"""Stitch actions (`passes/actions.py`): `use ACTION where Q`, and pre / main / post programs
+"""Stitch actions (`patterning/actions.py`): `use ACTION where Q`, and pre / main / post programs
 run at code generation. What each built-in action knits, the exact operations of a user
 action, its context, `split_by_side` ordering, `transfer_back`, located runtime errors, and
 that actions change nothing but how stitches are made. Every program that compiles here
@@ -14,11 +14,11 @@ from hypothesis import strategies as st
 from fabric import assert_knits_as_designed
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source
-from knitc.ir.stitch_graph import INSTRUCTIONS
-from knitc.passes import actions
-from knitc.passes.pattern import apply_patterns
-from knitc.passes.query import QueryEnv, coords, evaluate_query
-from knitc.passes.shape import build_stitch_graph
+from knitc.patterning import actions
+from knitc.patterning.pattern import apply_patterns
+from knitc.patterning.query import QueryEnv, coords, evaluate_query
+from knitc.shaping.shape import build_stitch_graph
+from knitc.shaping.stitch_graph import INSTRUCTIONS
 
 BUILTINS = ("knit", "purl", "purl_flat", "tuck", "miss", "kickback", "split")
 SHEET = "sheet s {{ length: 7  width: 8 }}\npattern s {{ use {a} where {q} }}\n"

@@ -14,13 +14,13 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from knitc import arith
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source
-from knitc.evaluate import EvalError, Evaluator
-from knitc.passes.query import QueryEnv, QueryError, _Eval
-from knitc.passes.resolve import parse_define
-from knitc.syntax import ast
+from knitc.frontend import ast
+from knitc.frontend.resolve import parse_define
+from knitc.lang import arith
+from knitc.lang.evaluate import EvalError, Evaluator
+from knitc.patterning.query import QueryEnv, QueryError, _Eval
 
 G = compile_source("sheet s { length: 1  width: 7 }\n", "s.knit", until="stitch-graph").graph
 WALES = list(range(-3, 4))

@@ -19,13 +19,13 @@ from hypothesis import strategies as st
 
 from fabric import assert_knits_as_designed
 from knitc.backends.knitout import write_knitout
+from knitc.codegen import casting as cast
+from knitc.codegen.bed import Bed
+from knitc.codegen.generate import CodegenOptions, options_from_skeleton
+from knitc.codegen.machine import Op
+from knitc.codegen.simulate import simulate
 from knitc.driver import Result, compile_source
-from knitc.ir.machine import Op
-from knitc.ir.skeleton import CAST_OFFS, CAST_ONS
-from knitc.passes import casting as cast
-from knitc.passes.bed import Bed
-from knitc.passes.codegen import CodegenOptions, options_from_skeleton
-from knitc.passes.simulate import simulate
+from knitc.frontend.skeleton import CAST_OFFS, CAST_ONS
 from oracle import assert_clean, run_oracle_on_text
 
 SHAPES = ("flat", "tube")

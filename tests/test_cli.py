@@ -16,7 +16,7 @@ from oracle import assert_clean, run_oracle
 
 def _has_module_fmt() -> bool:
     try:
-        from knitc.syntax.fmt import format_module  # noqa: F401
+        from knitc.frontend.fmt import format_module  # noqa: F401
     except ImportError:
         return False
     return True
@@ -24,18 +24,18 @@ def _has_module_fmt() -> bool:
 
 def _has_layer_fmt() -> bool:
     try:
-        from knitc.syntax.fmt import format_layer_stmt  # noqa: F401
+        from knitc.frontend.fmt import format_layer_stmt  # noqa: F401
     except ImportError:
         return False
     return True
 
 
 needs_fmt = pytest.mark.skipif(not _has_module_fmt(),
-                               reason="knitc.syntax.fmt.format_module does not exist yet")
+                               reason="knitc.frontend.fmt.format_module does not exist yet")
 needs_layer_fmt = pytest.mark.skipif(
     not _has_layer_fmt(),
-    reason="knitc.syntax.fmt.format_layer_stmt does not exist yet; "
-           "knitc.ir.skeleton.to_json imports it, so --emit skeleton cannot run")
+    reason="knitc.frontend.fmt.format_layer_stmt does not exist yet; "
+           "knitc.frontend.skeleton.to_json imports it, so --emit skeleton cannot run")
 
 GOOD = "param n = 2\ntube a { width: #n }\ntube b { width: #n }\na.top -> b.bottom\n"
 WARN = "tube a { width: 4 }\ntube b { width: 5 }\na.top -> b.bottom\n"   # W502
@@ -306,8 +306,8 @@ def test_compile_to_knitout_writes_the_file(capsys, write, tmp_path):
 
 @needs_fmt
 def test_fmt_check_canonical_and_not(capsys, write):
-    from knitc.syntax.fmt import format_module
-    from knitc.syntax.parser import parse
+    from knitc.frontend.fmt import format_module
+    from knitc.frontend.parser import parse
 
     messy = "param   n=2\n\n\n\ntube a{width:#n length : 3}\n"
     canonical = format_module(parse(messy, "f.knit"))

@@ -12,18 +12,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from knitc.backends.dat_format import (
-    HEADER_SIZE,
-    PALETTE,
-    DatError,
-    decode,
-    encode,
-    pack,
-    read_raster,
-    render,
-    rows,
-)
-from knitc.ir.dat import (
+from knitc.backends.dat import (
     KNIT_B,
     KNIT_F,
     KNIT_FB,
@@ -34,6 +23,17 @@ from knitc.ir.dat import (
     STOP,
     DatImage,
     DatPass,
+)
+from knitc.backends.dat_format import (
+    HEADER_SIZE,
+    PALETTE,
+    DatError,
+    decode,
+    encode,
+    pack,
+    read_raster,
+    render,
+    rows,
 )
 
 FIXTURES = Path(__file__).resolve().parent / "fixtures" / "dat"

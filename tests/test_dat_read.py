@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings
 
+from knitc.backends.dat import DatImage, DatPass
 from knitc.backends.dat_format import decode, encode, rows
 from knitc.backends.dat_read import (
     DatReadError,
@@ -21,8 +22,7 @@ from knitc.backends.dat_read import (
 from knitc.backends.dat_write import carrier_code, to_dat
 from knitc.backends.knitout import write_knitout
 from knitc.backends.knitout_read import parse_knitout
-from knitc.ir.dat import DatImage, DatPass
-from knitc.ir.machine import verify
+from knitc.codegen.machine import verify
 from test_knitout_read import machine_programs
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -18,6 +18,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from knitc.backends.dat import LEFT, NONE, RIGHT, DatImage
 from knitc.backends.dat_format import encode, rows
 from knitc.backends.dat_write import (
     STITCH_TABLE,
@@ -27,9 +28,8 @@ from knitc.backends.dat_write import (
     to_dat,
 )
 from knitc.backends.knitout_read import parse_knitout
+from knitc.codegen.machine import Machine, MachineProgram, Needle, Op
 from knitc.driver import compile_source
-from knitc.ir.dat import LEFT, NONE, RIGHT, DatImage
-from knitc.ir.machine import Machine, MachineProgram, Needle, Op
 
 ROOT = Path(__file__).resolve().parent.parent
 FIXTURES = ROOT / "tests" / "fixtures" / "dat"

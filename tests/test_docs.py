@@ -3,7 +3,7 @@
 * Its diagnostic table lists exactly the codes the compiler's source contains: every
   `"E123"` / `"W123"` string literal and every rendered `error[E123]` / `warning[W123]` in
   compiler/knitc/**/*.py, each once, with the severity its letter says.
-* Its property tables list exactly the properties of `knitc.ir.skeleton`'s tables, one
+* Its property tables list exactly the properties of `knitc.frontend.skeleton`'s tables, one
   table per kind, each with its default, its choices and its range.
 * Every ```` ```knit ```` example compiles through code generation without errors (a block
   fenced ```` ```knit fragment ```` is exempt), and every fenced block says its language.
@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from knitc.driver import compile_source
-from knitc.ir import skeleton as sk
+from knitc.frontend import skeleton as sk
 
 ROOT = Path(__file__).parent.parent
 DOC = ROOT / "docs" / "language.md"
@@ -146,7 +146,7 @@ def documented_properties() -> dict[str, dict[str, list[str]]]:
         if not header:
             continue
         assert heading in PROPERTY_TABLES, (
-            f"a property table under `{heading}`, which documents none of knitc.ir.skeleton's "
+            f"a property table under `{heading}`, which documents none of knitc.frontend.skeleton's "
             f"tables (known headings: {', '.join(PROPERTY_TABLES)})")
         assert heading not in out, f"two sections `{heading}`"
         assert header[0].replace(" ", "") == "|property|type|default|values|meaning|", header[0]
@@ -173,7 +173,7 @@ def test_the_properties_of_each_kind_are_documented_with_default_choices_and_ran
     missing = sorted(set(spec_table) - set(rows))
     extra = sorted(set(rows) - set(spec_table))
     assert not missing and not extra, (
-        f"{heading}: the docs and knitc.ir.skeleton differ:\n"
+        f"{heading}: the docs and knitc.frontend.skeleton differ:\n"
         f"  not documented: {', '.join(missing) or 'none'}\n"
         f"  documented but not a property: {', '.join(extra) or 'none'}")
     for name, spec in spec_table.items():

@@ -18,10 +18,10 @@ from fabric import assert_knits_as_designed
 from golden import assert_golden
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source
-from knitc.ir.stitch_graph import INSTRUCTIONS
-from knitc.passes import raster
-from knitc.passes.query import QueryEnv, coords, evaluate_frame, evaluate_query
-from knitc.syntax import ast
+from knitc.frontend import ast
+from knitc.patterning import raster
+from knitc.patterning.query import QueryEnv, coords, evaluate_frame, evaluate_query
+from knitc.shaping.stitch_graph import INSTRUCTIONS
 from test_query_golden import GOLDEN, LEGEND_LINE, chart, patterned
 
 K, P, T, M = (INSTRUCTIONS.index(m) for m in ("K", "P", "T", "M"))

@@ -1,7 +1,7 @@
 """knitc's own expression evaluator, driven through the real parser.
 
 Every expression is written as source (`param x = EXPR`), parsed by the grammar and evaluated
-by `knitc.evaluate.Evaluator`, so these tests pin precedence and associativity as the
+by `knitc.lang.evaluate.Evaluator`, so these tests pin precedence and associativity as the
 designer sees them, not just the evaluator's arithmetic.
 """
 
@@ -11,7 +11,9 @@ import math
 
 import pytest
 
-from knitc.evaluate import (
+from knitc.frontend import ast
+from knitc.frontend.parser import parse
+from knitc.lang.evaluate import (
     EvalError,
     Evaluator,
     Profile,
@@ -20,8 +22,6 @@ from knitc.evaluate import (
     show,
     type_name,
 )
-from knitc.syntax import ast
-from knitc.syntax.parser import parse
 
 PARAMS = {"n": 4, "w": 10, "half_w": 5.5, "flag": True, "g": Word("half")}
 

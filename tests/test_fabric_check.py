@@ -17,9 +17,9 @@ import pytest
 
 from fabric import Fabric, Mismatch, check_fabric
 from knitc.backends.knitout import write_knitout
+from knitc.codegen.machine import MachineProgram, Op
 from knitc.driver import Result, compile_source
-from knitc.ir.machine import MachineProgram, Op
-from knitc.ir.stitch_graph import INSTRUCTIONS
+from knitc.shaping.stitch_graph import INSTRUCTIONS
 from oracle import run_oracle_on_text
 
 SHEET = "sheet s { length: 6  width: 8 }\n"

@@ -9,7 +9,7 @@ Each `// RUN:` line is a shell pipeline run in the file's directory with `%s` th
 name, `knitc` this interpreter's knitc, `filecheck` the FileCheck of the test extra
 (the `filecheck` package, https://github.com/mull-project/FileCheck.py) and `not CMD`
 succeeding when CMD fails (for diagnostics, which exit 1). A RUN line may carry a
-`--check-prefix` to match several outputs from one file. Text forms: `ir/text.py`.
+`--check-prefix` to match several outputs from one file. Text forms: `text_form.py`.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Tests of the canonical formatter (knitc.syntax.fmt).
+"""Tests of the canonical formatter (knitc.frontend.fmt).
 
 Three kinds: property tests on random ASTs (the formatter prints what the parser reads back,
 and is idempotent), comment tests (every comment survives exactly once, wherever it was
@@ -18,9 +18,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from golden import assert_golden
-from knitc.syntax import ast
-from knitc.syntax.fmt import format_expr, format_layer_stmt, format_module
-from knitc.syntax.parser import parse
+from knitc.frontend import ast
+from knitc.frontend.fmt import format_expr, format_layer_stmt, format_module
+from knitc.frontend.parser import parse
 from strategies import exprs, modules
 
 REPO = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""The statement interpreter (`knitc.interp`), driven through the real parser.
+"""The statement interpreter (`knitc.lang.interp`), driven through the real parser.
 
 Every block is written as source inside `shaper t(M, N) { ... }` and run with
 `Interpreter.run`, so these tests pin the semantics the designer sees: scoping of `let` and
@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import pytest
 
-from knitc.evaluate import EvalError, Word
-from knitc.interp import DEFAULT_BUDGET, Host, Interpreter
+from knitc.frontend import ast
+from knitc.frontend.parser import parse
+from knitc.lang.evaluate import EvalError, Word
+from knitc.lang.interp import DEFAULT_BUDGET, Host, Interpreter
 from knitc.source import UNKNOWN_SPAN
-from knitc.syntax import ast
-from knitc.syntax.parser import parse
 
 
 def block_of(src: str) -> ast.Block:

@@ -16,7 +16,7 @@ from knitc.backends.knitout import (
     read_knitout,
     write_knitout,
 )
-from knitc.ir.machine import Machine, MachineProgram, Needle, Op, verify
+from knitc.codegen.machine import Machine, MachineProgram, Needle, Op, verify
 from knitc.source import Span
 from oracle import assert_clean, run_oracle_on_text
 from test_machine_ir import flat_swatch, half_gauge_tube

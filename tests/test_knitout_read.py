@@ -21,8 +21,8 @@ from knitc.backends.knitout_read import (
     knitout_diagnostics,
     parse_knitout,
 )
+from knitc.codegen.machine import CARRIER_KINDS, Machine, MachineProgram, Needle, Op, verify
 from knitc.driver import compile_source
-from knitc.ir.machine import CARRIER_KINDS, Machine, MachineProgram, Needle, Op, verify
 
 ROOT = Path(__file__).resolve().parent.parent
 FIXTURES = sorted((ROOT / "tests" / "fixtures" / "dat").glob("*.k"))

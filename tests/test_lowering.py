@@ -1,5 +1,5 @@
 """Lowering of the pattern instructions (thesis ch. 4.2.2): T, M, the moves, the crosses, S,
-the flat purl that stays on the back bed, and the instructions `passes.instructions`
+the flat purl that stays on the back bed, and the instructions `patterning.instructions`
 refuses. Each test reads the machine program the instruction turns into; the lowerings
 also run clean on the independent machine (one batch, at the end)."""
 
@@ -13,11 +13,11 @@ from hypothesis import strategies as st
 from fabric import assert_knits_as_designed
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source
-from knitc.ir import schedule as sc
-from knitc.ir.stitch_graph import INSTRUCTIONS
-from knitc.passes.instructions import check_instructions
-from knitc.passes.pattern import apply_patterns
-from knitc.passes.shape import build_stitch_graph
+from knitc.patterning.instructions import check_instructions
+from knitc.patterning.pattern import apply_patterns
+from knitc.scheduling import schedule as sc
+from knitc.shaping.shape import build_stitch_graph
+from knitc.shaping.stitch_graph import INSTRUCTIONS
 from test_props_shape import SETTINGS
 
 

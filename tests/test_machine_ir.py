@@ -1,4 +1,4 @@
-"""The machine-program IR (`knitc.ir.machine`): needles, ops, the builder, stats, the
+"""The machine-program IR (`knitc.codegen.machine`): needles, ops, the builder, stats, the
 verifier and the JSON dump.
 
 `flat_swatch` and `half_gauge_tube` are hand-built valid programs shared with
@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from knitc.ir.machine import (
+from knitc.codegen.machine import (
     KINDS,
     Machine,
     MachineProgram,

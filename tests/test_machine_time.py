@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 
 from knitc.backends.dat_write import SOFT_MISS, XFER_BF, XFER_FB, to_dat
+from knitc.codegen.machine import estimate_passes
 from knitc.driver import compile_file, compile_source
-from knitc.ir.machine import estimate_passes
 
 REPO = Path(__file__).resolve().parent.parent
 DESIGNS = sorted((REPO / "examples").glob("*.knit")) + \

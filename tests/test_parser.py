@@ -1,4 +1,4 @@
-"""Unit tests of the parser (knitc.syntax.parser): a few per construct of knit.lark.
+"""Unit tests of the parser (knitc.frontend.parser): a few per construct of knit.lark.
 
 ASTs compare without spans, so expected trees are written without them; spans get their
 own tests. The formatter's property tests (test_fmt.py) cover the combinations.
@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import pytest
 
-from knitc.syntax import ast
-from knitc.syntax.ast import (
+from knitc.frontend import ast
+from knitc.frontend.ast import (
     ApplyStmt,
     Assign,
     Attr,
@@ -51,7 +51,7 @@ from knitc.syntax.ast import (
     Unary,
     UseStmt,
 )
-from knitc.syntax.parser import parse
+from knitc.frontend.parser import parse
 
 
 def items(text: str) -> tuple:
@@ -494,7 +494,7 @@ def test_keyword_before_comments_mentioning_dots():
 
 
 def test_errors_are_never_silent(monkeypatch):
-    from knitc.syntax import parser
+    from knitc.frontend import parser
 
     monkeypatch.setattr(parser, "_recover", lambda source, diags: None)
     assert "error[E101]" in syntax_error("param x = = 1")

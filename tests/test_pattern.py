@@ -1,4 +1,4 @@
-"""The pattern pass (`passes/pattern.py`) and the lowering of P in code generation: which
+"""The pattern pass (`patterning/pattern.py`) and the lowering of P in code generation: which
 instruction each stitch gets, that nothing but instructions changes, the purl's transfers,
 and the warnings for what cannot be knitted. Every program here also runs clean on the
 independent machine."""
@@ -14,11 +14,11 @@ from hypothesis import given
 from fabric import assert_knits_as_designed
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source
-from knitc.ir.stitch_graph import INSTRUCTIONS
-from knitc.passes.instructions import check_instructions
-from knitc.passes.pattern import apply_patterns
-from knitc.passes.query import coords
-from knitc.passes.shape import build_stitch_graph
+from knitc.patterning.instructions import check_instructions
+from knitc.patterning.pattern import apply_patterns
+from knitc.patterning.query import coords
+from knitc.shaping.shape import build_stitch_graph
+from knitc.shaping.stitch_graph import INSTRUCTIONS
 from test_props_resolve import programs
 from test_props_shape import SETTINGS, compile_graph
 

@@ -13,9 +13,9 @@ from __future__ import annotations
 from hypothesis import event, given, settings
 
 from fabric import assert_knits_as_designed
+from knitc.codegen.machine import verify as verify_machine
+from knitc.codegen.simulate import simulate
 from knitc.driver import compile_source
-from knitc.ir.machine import verify as verify_machine
-from knitc.passes.simulate import simulate
 from test_props_resolve import Program, programs
 from test_props_shape import SETTINGS, compile_graph
 

@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source
-from knitc.passes.query import coords, evaluate_query
-from knitc.syntax import ast
+from knitc.frontend import ast
+from knitc.patterning.query import coords, evaluate_query
 
 SRC = """
 sheet s { width: [0: 7, 1: 11]  length: 9 }

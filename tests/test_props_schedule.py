@@ -4,7 +4,7 @@ The programs come from `programs()` in test_props_resolve.py and go through the 
 test_props_shape.py (`compile_graph`), as in test_props_codegen.py. Every garment is traced
 (the driver's `trace_courses`, or `trace_rules` with one or two passes), sliced with a drawn
 shaping limit and scheduled on a wide machine; the schedule must hold, checked here from
-scratch with Python sets rather than with `ir.schedule.verify` alone:
+scratch with Python sets rather than with `scheduling.schedule.verify` alone:
 
 * every layout satisfies the slack constraint (consecutive cycle entries at most one
   relative needle apart, around the ring for circular cycles) and puts no two entries of a
@@ -14,7 +14,7 @@ scratch with Python sets rather than with `ir.schedule.verify` alone:
   of each cycle are where the cycle puts them and every other live loop is where it was
   last (or where an alignment record moved it);
 * every ACTIVE stitch is placed;
-* and `ir.schedule.verify` agrees (finds nothing).
+* and `scheduling.schedule.verify` agrees (finds nothing).
 
 A narrow machine must give E601 rather than an overlap or a crash, and only when the
 schedule really needs more needles than the machine has (the width E601 reports fits).
@@ -27,11 +27,11 @@ from hypothesis import strategies as st
 
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source
-from knitc.ir import schedule as ir
-from knitc.ir.slices import ACTIVE, EXPECTED, SUSPENDED
-from knitc.passes.schedule import schedule
-from knitc.passes.slice import slice_trace
-from knitc.passes.trace import trace_courses, trace_rules
+from knitc.scheduling import schedule as ir
+from knitc.scheduling.scheduler import schedule
+from knitc.scheduling.slices import ACTIVE, EXPECTED, SUSPENDED
+from knitc.scheduling.slicing import slice_trace
+from knitc.scheduling.tracing import trace_courses, trace_rules
 from test_props_resolve import programs
 from test_props_shape import SETTINGS, compile_graph
 

@@ -18,7 +18,7 @@ pytest with `--hypothesis-show-statistics` to see how many):
   disagree on their number of sides around a split (a folded split with both flat and
   tubular branches, or a flat branch that makes a folded base flat while a tube or joint
   meets it). The minimal cases in test_stitch_graph.py are fixed; richer combinations
-  still fail. A crash inside `knitc.passes.shape` on such a program is skipped (with an
+  still fail. A crash inside `knitc.shaping.shape` on such a program is skipped (with an
   `event`), not failed; any other exception fails. KNITC_STRICT_PROPS=1 fails on those
   too, to work on them. (Joints whose first row holds the yarn, one-course sheets with two
   widths, closed ends of shared one-course tubes and zigzag closings into joints were
@@ -34,11 +34,11 @@ import numpy as np
 from hypothesis import HealthCheck, assume, event, given, note, settings
 
 from knitc.driver import compile_source
-from knitc.evaluate import round_half_up
-from knitc.ir import stitch_graph as sg
-from knitc.ir import trace as tr
-from knitc.ir.skeleton import ItfId, Skeleton
-from knitc.passes.trace import trace_courses, trace_rules
+from knitc.frontend.skeleton import ItfId, Skeleton
+from knitc.lang.evaluate import round_half_up
+from knitc.scheduling import trace as tr
+from knitc.scheduling.tracing import trace_courses, trace_rules
+from knitc.shaping import stitch_graph as sg
 from test_props_resolve import Program, programs
 from test_trace import check_trace, direction_errors, far_jumps
 

@@ -4,7 +4,7 @@ The programs come from `programs()` in test_props_resolve.py and go through the 
 test_props_shape.py (`compile_graph`), as in test_props_codegen.py. For every garment and
 every tracer (the driver's `trace_courses`, and `trace_rules` with one and two passes):
 
-* `ir.slices.verify` finds nothing;
+* `scheduling.slices.verify` finds nothing;
 * the thesis's constraints hold, checked here from scratch, slice by slice, with Python
   sets: (1) one yarn, (2) no two wale-connected stitches, (3) one cast-on and one cast-off
   need, (4) one direction, (5) increases + decreases within the limit (or a single visit);
@@ -22,11 +22,11 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from knitc.ir import slices as sl
-from knitc.ir.stitch_graph import COURSE_KINDS, StitchGraph
-from knitc.ir.trace import Trace
-from knitc.passes.slice import slice_trace
-from knitc.passes.trace import trace_courses, trace_rules
+from knitc.scheduling import slices as sl
+from knitc.scheduling.slicing import slice_trace
+from knitc.scheduling.trace import Trace
+from knitc.scheduling.tracing import trace_courses, trace_rules
+from knitc.shaping.stitch_graph import COURSE_KINDS, StitchGraph
 from test_props_resolve import programs
 from test_props_shape import SETTINGS, compile_graph
 

@@ -12,7 +12,7 @@ import pytest
 
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source
-from knitc.passes.query import QueryEnv, coords, evaluate_query
+from knitc.patterning.query import QueryEnv, coords, evaluate_query
 
 SHAPES = """
 sheet s { width: 6  length: 5 }
@@ -142,7 +142,7 @@ def test_30x30_matches_coordinate_formula(node):
 def test_global_layer_sees_every_node():
     r = compile_layers()
     g = r.graph
-    from knitc.syntax import ast
+    from knitc.frontend import ast
     q = ast.Call(func=ast.Name(id="wales"), args=(ast.Number(value=0),))
     d = Diagnostics()
     m = evaluate_query(g, None, q, None, d)

@@ -22,10 +22,10 @@ import pytest
 from golden import assert_golden
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source
-from knitc.ir.stitch_graph import INSTRUCTIONS
-from knitc.passes.pattern import apply_patterns
-from knitc.passes.query import coords
-from knitc.passes.shape import build_stitch_graph
+from knitc.patterning.pattern import apply_patterns
+from knitc.patterning.query import coords
+from knitc.shaping.shape import build_stitch_graph
+from knitc.shaping.stitch_graph import INSTRUCTIONS
 
 GOLDEN = Path(__file__).resolve().parent / "golden" / "query"
 
@@ -130,7 +130,7 @@ def test_query_golden(name, shape, tmp_path):
 
 
 def test_every_query_function_has_a_golden():
-    from knitc.passes.resolve import QUERY_FUNCTIONS
+    from knitc.frontend.resolve import QUERY_FUNCTIONS
 
     written = " ".join(QUERIES.values())
     missing = [f for f in QUERY_FUNCTIONS if f + "(" not in written]

@@ -10,9 +10,9 @@ from __future__ import annotations
 import pytest
 
 from knitc.driver import compile_source
-from knitc.evaluate import Profile, Word
-from knitc.ir import skeleton as sk
-from knitc.ir.skeleton import ItfId
+from knitc.frontend import skeleton as sk
+from knitc.frontend.skeleton import ItfId
+from knitc.lang.evaluate import Profile, Word
 
 
 def compile_(text: str, defines=(), path: str = "t.knit"):

@@ -22,10 +22,10 @@ from fixed_layout import layout
 from knitc.cli import main
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source, emit_json
-from knitc.ir import schedule as ir
-from knitc.ir.slices import ACTIVE, Slices
-from knitc.ir.stitch_graph import StitchGraph, empty_pair
-from knitc.passes.schedule import hub_bridges, schedule, valid_orders
+from knitc.scheduling import schedule as ir
+from knitc.scheduling.scheduler import hub_bridges, schedule, valid_orders
+from knitc.scheduling.slices import ACTIVE, Slices
+from knitc.shaping.stitch_graph import StitchGraph, empty_pair
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = sorted((ROOT / "examples").glob("*.knit")) + \

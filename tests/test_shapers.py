@@ -1,4 +1,4 @@
-"""Shapers (`knitc.passes.shapers`): the predefined formulas of the original system, user
+"""Shapers (`knitc.shaping.shapers`): the predefined formulas of the original system, user
 shaper programs, and the validator they share.
 
 The table is the original system's verified output (seed-systems §1.6: "each target lists
@@ -14,8 +14,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from knitc.evaluate import EvalError, round_half_up
-from knitc.passes.shapers import (
+from knitc.frontend import ast
+from knitc.frontend.parser import parse
+from knitc.lang.evaluate import EvalError, round_half_up
+from knitc.resources import stdlib_module
+from knitc.shaping.shapers import (
     PREDEFINED,
     MappingError,
     mapping_from_pairs,
@@ -24,9 +27,6 @@ from knitc.passes.shapers import (
     shape,
     wales_between,
 )
-from knitc.resources import stdlib_module
-from knitc.syntax import ast
-from knitc.syntax.parser import parse
 
 
 def seq(text: str) -> list[int]:

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from knitc.driver import compile_file
-from knitc.ir.stitch_graph import StitchGraph
+from knitc.shaping.stitch_graph import StitchGraph
 
 REPO = Path(__file__).resolve().parent.parent
 DESIGNS = sorted((REPO / "examples").glob("*.knit")) + \

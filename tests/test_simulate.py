@@ -1,4 +1,4 @@
-"""knitc's machine simulation (`knitc.passes.simulate`): each rule on small programs, the
+"""knitc's machine simulation (`knitc.codegen.simulate`): each rule on small programs, the
 findings located at ops/stitches/spans and rendered as diagnostics, and agreement with the
 independent oracle on valid and broken programs (the oracle stays the judge).
 """
@@ -10,9 +10,9 @@ import time
 import pytest
 
 from knitc.backends.knitout import op_of_line, read_knitout, write_knitout
+from knitc.codegen.machine import MachineProgram, Needle, Op
+from knitc.codegen.simulate import CODES, Finding, Simulator, add_to_diagnostics, simulate
 from knitc.diagnostics import Diagnostics
-from knitc.ir.machine import MachineProgram, Needle, Op
-from knitc.passes.simulate import CODES, Finding, Simulator, add_to_diagnostics, simulate
 from knitc.source import SourceFile
 from oracle import OracleReport, run_oracle_on_text
 from test_knitout_backend import every_kind, tiny

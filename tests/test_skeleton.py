@@ -9,14 +9,14 @@ from pathlib import Path
 import pytest
 
 from knitc.driver import compile_source, emit_json
-from knitc.ir import skeleton as sk
+from knitc.frontend import skeleton as sk
 
 REPO = Path(__file__).resolve().parents[1]
 
 
 def _has_layer_fmt() -> bool:
     try:
-        from knitc.syntax.fmt import format_layer_stmt  # noqa: F401
+        from knitc.frontend.fmt import format_layer_stmt  # noqa: F401
     except ImportError:
         return False
     return True
@@ -24,8 +24,8 @@ def _has_layer_fmt() -> bool:
 
 needs_layer_fmt = pytest.mark.skipif(
     not _has_layer_fmt(),
-    reason="knitc.syntax.fmt.format_layer_stmt does not exist yet; "
-           "knitc.ir.skeleton.to_json imports it, so the skeleton JSON cannot be built")
+    reason="knitc.frontend.fmt.format_layer_stmt does not exist yet; "
+           "knitc.frontend.skeleton.to_json imports it, so the skeleton JSON cannot be built")
 
 
 def compile_(text: str, defines=(), werror=False):

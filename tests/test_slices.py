@@ -1,6 +1,6 @@
 """Slicing (traced yarn → bed slices, thesis ch. 6.7.1): small designs whose slices are
 worked out by hand, every example, the `slice_shaping` machine property, `--emit slices`,
-and hand-broken slicings that `ir.slices.verify` must reject.
+and hand-broken slicings that `scheduling.slices.verify` must reject.
 
 Cycles are written as in the thesis's figures: a stitch id and its state's initial,
 `7a` active, `7e` expected, `7s` suspended, in cycle order (flat: left to right; rings:
@@ -19,10 +19,10 @@ import pytest
 import test_stitch_graph
 from knitc.cli import main
 from knitc.driver import compile_file, compile_source, emit_json
-from knitc.ir import slices as sl
-from knitc.ir.stitch_graph import COURSE_KINDS
-from knitc.passes.slice import slice_trace
-from knitc.passes.trace import trace_rules
+from knitc.scheduling import slices as sl
+from knitc.scheduling.slicing import slice_trace
+from knitc.scheduling.tracing import trace_rules
+from knitc.shaping.stitch_graph import COURSE_KINDS
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = sorted((ROOT / "examples").glob("*.knit")) + \

@@ -14,8 +14,8 @@ from hypothesis import strategies as st
 
 from fabric import assert_knits_as_designed
 from knitc.driver import compile_source
-from knitc.ir.stitch_graph import INSTRUCTIONS
-from knitc.passes.query import coords
+from knitc.patterning.query import coords
+from knitc.shaping.stitch_graph import INSTRUCTIONS
 
 SHAPES = {
     "sheet": "sheet s {{ length: 26  width: 24 }}",

@@ -1,7 +1,7 @@
 """The shape pass (skeleton → stitch graph) and the stitch-graph IR, primitive by primitive.
 
 Each test compiles a small design to a stitch graph and checks what the thesis (ch. 5.2,
-5.4.1) and `knitc.passes.shape` say about it: stitch counts, course lengths and layout,
+5.4.1) and `knitc.shaping.shape` say about it: stitch counts, course lengths and layout,
 course and wale links, course kinds and names. Every graph also goes through
 `stitch_graph.verify`, and a few hand-corrupted graphs check that the verifier can fail.
 
@@ -31,9 +31,9 @@ import pytest
 from golden import assert_golden
 from knitc.cli import main
 from knitc.driver import compile_file, compile_source, emit_json
-from knitc.ir import stitch_graph as sg
-from knitc.passes.shape import GOLDEN as GOLDEN_STEP
-from knitc.passes.shapers import shape as shaper_map
+from knitc.shaping import stitch_graph as sg
+from knitc.shaping.shape import GOLDEN as GOLDEN_STEP
+from knitc.shaping.shapers import shape as shaper_map
 
 ROOT = Path(__file__).resolve().parent.parent
 KNITSKEL = ROOT / "examples" / "knitskel"

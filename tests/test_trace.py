@@ -21,9 +21,9 @@ import pytest
 
 from knitc.cli import main
 from knitc.driver import compile_file, compile_source
-from knitc.ir import stitch_graph as sg
-from knitc.ir import trace as tr
-from knitc.passes.trace import trace_courses, trace_rules
+from knitc.scheduling import trace as tr
+from knitc.scheduling.tracing import trace_courses, trace_rules
+from knitc.shaping import stitch_graph as sg
 
 ROOT = Path(__file__).resolve().parent.parent
 KNITSKEL = ROOT / "examples" / "knitskel"
@@ -69,7 +69,7 @@ def neighbours(g: sg.StitchGraph, a: int, b: int) -> bool:
 
 
 def near(g: sg.StitchGraph, a: int, b: int) -> bool:
-    """What a JUMP may bridge (ir/trace.py, passes/trace.py): an adjacent needle of the same
+    """What a JUMP may bridge (scheduling/trace.py, scheduling/tracing.py): an adjacent needle of the same
     node, or one diagonal step onto the next course (a spiral)."""
     if g.node[a] == g.node[b] and abs(int(g.needle[a]) - int(g.needle[b])) <= 1:
         return True

@@ -1,4 +1,4 @@
-"""The shaping transfer planner (`knitc.passes.transfers.move`) on a bare bed.
+"""The shaping transfer planner (`knitc.codegen.transfers.move`) on a bare bed.
 
 Every test puts loops of known stitches on a `Bed`, asks `move` for a set of moves, and
 replays the emitted ops with `replay` below, which follows every loop by identity: each
@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 
 from knitc.backends.knitout import write_knitout
-from knitc.ir.machine import Machine, MachineProgram, aligned
-from knitc.passes.bed import Bed, Pos, Unsupported
-from knitc.passes.simulate import simulate
-from knitc.passes.transfers import Park, _windings, move, plan
+from knitc.codegen.bed import Bed, Pos, Unsupported
+from knitc.codegen.machine import Machine, MachineProgram, aligned
+from knitc.codegen.simulate import simulate
+from knitc.codegen.transfers import Park, _windings, move, plan
 from oracle import assert_clean, run_oracle_on_text
 
 CARRIER = 3

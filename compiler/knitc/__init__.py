@@ -35,10 +35,10 @@ _PUBLIC = {
     "TARGETS": "knitc.driver", "InternalError": "knitc.driver",
     "Diagnostics": "knitc.diagnostics", "Diagnostic": "knitc.diagnostics",
     "Span": "knitc.source",
-    "Module": "knitc.syntax.ast", "Skeleton": "knitc.ir.skeleton",
-    "StitchGraph": "knitc.ir.stitch_graph", "Trace": "knitc.ir.trace",
-    "Slices": "knitc.ir.slices", "Schedule": "knitc.ir.schedule",
-    "MachineProgram": "knitc.ir.machine", "Op": "knitc.ir.machine", "Needle": "knitc.ir.machine",
+    "Module": "knitc.frontend.ast", "Skeleton": "knitc.frontend.skeleton",
+    "StitchGraph": "knitc.shaping.stitch_graph", "Trace": "knitc.scheduling.trace",
+    "Slices": "knitc.scheduling.slices", "Schedule": "knitc.scheduling.schedule",
+    "MachineProgram": "knitc.codegen.machine", "Op": "knitc.codegen.machine", "Needle": "knitc.codegen.machine",
 }
 
 __all__ = [
@@ -48,6 +48,7 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
+    from knitc.codegen.machine import MachineProgram, Needle, Op
     from knitc.diagnostics import Diagnostic, Diagnostics
     from knitc.driver import (
         STAGES,
@@ -59,14 +60,13 @@ if TYPE_CHECKING:
         compile_source,
         resume,
     )
-    from knitc.ir.machine import MachineProgram, Needle, Op
-    from knitc.ir.schedule import Schedule
-    from knitc.ir.skeleton import Skeleton
-    from knitc.ir.slices import Slices
-    from knitc.ir.stitch_graph import StitchGraph
-    from knitc.ir.trace import Trace
+    from knitc.frontend.ast import Module
+    from knitc.frontend.skeleton import Skeleton
+    from knitc.scheduling.schedule import Schedule
+    from knitc.scheduling.slices import Slices
+    from knitc.scheduling.trace import Trace
+    from knitc.shaping.stitch_graph import StitchGraph
     from knitc.source import Span
-    from knitc.syntax.ast import Module
 
 
 def __getattr__(name: str) -> Any:

@@ -283,9 +283,9 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_fmt(args: argparse.Namespace) -> int:
+    from knitc.frontend.fmt import format_module
+    from knitc.frontend.parser import parse_source
     from knitc.source import SourceFile
-    from knitc.syntax.fmt import format_module
-    from knitc.syntax.parser import parse_source
     status = 0
     for path in args.files:
         diags = Diagnostics()

@@ -25,15 +25,15 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
+from knitc.codegen import machine as mp
 from knitc.diagnostics import Diagnostics, Note
-from knitc.ir import machine as mp
-from knitc.ir import schedule as sc
-from knitc.ir import skeleton as sk
-from knitc.ir import slices as sl
-from knitc.ir import stitch_graph as sg
-from knitc.ir import trace as tr
+from knitc.frontend import ast
+from knitc.frontend import skeleton as sk
+from knitc.scheduling import schedule as sc
+from knitc.scheduling import slices as sl
+from knitc.scheduling import trace as tr
+from knitc.shaping import stitch_graph as sg
 from knitc.source import SourceFile
-from knitc.syntax import ast
 
 T = TypeVar("T")
 
@@ -76,7 +76,7 @@ class Stage:
     `Result` and stores it (False: it reported errors, stop); `verify` lists the IR's
     broken invariants (empty when valid); `dump` is its stable JSON (`--emit NAME`) and
     `text` its compact text form (`--format text`; by default the dump one record per
-    line, `ir.text`)."""
+    line, `text_form`)."""
 
     name: str
     run: Callable[[Result], bool]
@@ -89,22 +89,22 @@ class Stage:
 # ---- the stages, in pipeline order ----------------------------------------------------------
 
 def _parse(r: Result) -> bool:
-    from knitc.syntax.parser import parse_source
+    from knitc.frontend.parser import parse_source
     r.module = parse_source(SourceFile(r.path, r.text), r.diagnostics)
     return r.module is not None
 
 
 def _resolve(r: Result) -> bool:
-    from knitc.passes.resolve import resolve
+    from knitc.frontend.resolve import resolve
     assert r.module is not None
     r.skeleton = resolve(r.module, r.path, r.diagnostics, r.defines)
     return r.skeleton is not None
 
 
 def _stitch_graph(r: Result) -> bool:
-    from knitc.passes.instructions import check_instructions
-    from knitc.passes.pattern import apply_patterns
-    from knitc.passes.shape import build_stitch_graph
+    from knitc.patterning.instructions import check_instructions
+    from knitc.patterning.pattern import apply_patterns
+    from knitc.shaping.shape import build_stitch_graph
     assert r.skeleton is not None
     graph = build_stitch_graph(r.skeleton, r.diagnostics)
     if graph is None:
@@ -116,14 +116,14 @@ def _stitch_graph(r: Result) -> bool:
 
 
 def _trace(r: Result) -> bool:
-    from knitc.passes.trace import trace_courses
+    from knitc.scheduling.tracing import trace_courses
     assert r.graph is not None
     r.trace = trace_courses(r.graph)
     return True
 
 
 def _slice(r: Result) -> bool:
-    from knitc.passes.slice import slice_trace
+    from knitc.scheduling.slicing import slice_trace
     assert r.skeleton is not None and r.graph is not None and r.trace is not None
     m = r.skeleton.machine
     limits = {"flat_limit": m.slice_shaping, "tube_limit": m.slice_shaping} \
@@ -133,7 +133,7 @@ def _slice(r: Result) -> bool:
 
 
 def _schedule(r: Result) -> bool:
-    from knitc.passes.schedule import schedule
+    from knitc.scheduling.scheduler import schedule
     assert r.skeleton is not None and r.graph is not None and r.slices is not None
     r.schedule = schedule(r.graph, r.slices, needles=r.skeleton.machine.needles,
                           diags=r.diagnostics)
@@ -141,8 +141,8 @@ def _schedule(r: Result) -> bool:
 
 
 def _generate(r: Result) -> bool:
-    from knitc.passes.codegen import generate, options_from_skeleton
-    from knitc.passes.simulate import add_to_diagnostics, simulate
+    from knitc.codegen.generate import generate, options_from_skeleton
+    from knitc.codegen.simulate import add_to_diagnostics, simulate
     assert r.skeleton is not None and r.graph is not None
     assert r.schedule is not None and r.trace is not None
     m = r.skeleton.machine
@@ -185,7 +185,7 @@ def _dat(r: Result) -> bool:
 
 def _ast_text(r: Result) -> str:
     """The AST's text form is the canonical source (`knitc fmt`)."""
-    from knitc.syntax.fmt import format_module
+    from knitc.frontend.fmt import format_module
     return format_module(_the(r.module))
 
 
@@ -275,7 +275,7 @@ def _index(name: str) -> int:
 def compile_source(text: str, path: str, *, defines: list[str] | tuple[str, ...] = (),
                    until: str = "skeleton", werror: bool = False) -> Result:
     """Run the pipeline on `text` up to and including stage `until`."""
-    from knitc.passes.resolve import parse_define
+    from knitc.frontend.resolve import parse_define
     stage(until)  # a misspelt stage is a mistake of the caller, not "run everything"
     result = Result(Diagnostics(), path=path, text=text, werror=werror)
     for d in defines:
@@ -309,7 +309,7 @@ def emit_text(result: Result, name: str) -> str:
     if s.text is not None:
         _dump(result, name)  # the same checks
         return s.text(result)
-    from knitc.ir.text import render
+    from knitc.text_form import render
     return render(_dump(result, name))
 
 

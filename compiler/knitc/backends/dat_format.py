@@ -40,7 +40,7 @@ from itertools import chain
 
 import numpy as np
 
-from knitc.ir.dat import (
+from knitc.backends.dat import (
     KNIT_B,
     KNIT_F,
     KNIT_FB,

@@ -83,8 +83,7 @@ from __future__ import annotations
 
 import math
 
-from knitc.backends.knitout_read import gc_paused
-from knitc.ir.dat import (
+from knitc.backends.dat import (
     KNIT_B,
     KNIT_F,
     KNIT_F_TUCK_B,
@@ -106,7 +105,8 @@ from knitc.ir.dat import (
     DatImage,
     DatPass,
 )
-from knitc.ir.machine import Machine, MachineProgram, Needle, Op
+from knitc.backends.knitout_read import gc_paused
+from knitc.codegen.machine import Machine, MachineProgram, Needle, Op
 
 __all__ = ["DEFAULT_WIDTH", "DatReadError", "carriers_of_code", "dat_to_program",
            "racking_of"]

@@ -43,7 +43,7 @@ import math
 from dataclasses import dataclass, field
 from typing import cast
 
-from knitc.ir.dat import (
+from knitc.backends.dat import (
     KNIT_B,
     KNIT_F,
     KNIT_F_TUCK_B,
@@ -65,7 +65,7 @@ from knitc.ir.dat import (
     DatImage,
     DatPass,
 )
-from knitc.ir.machine import MachineProgram, Needle
+from knitc.codegen.machine import MachineProgram, Needle
 
 __all__ = ["DEFAULT_WIDTH", "DatWriteError", "STITCH_TABLE", "carrier_code", "stitch_number",
            "to_dat"]

@@ -22,7 +22,7 @@ that converter.
 
 from __future__ import annotations
 
-from knitc.ir.machine import CARRIER_KINDS, MachineProgram, Op
+from knitc.codegen.machine import CARRIER_KINDS, MachineProgram, Op
 
 MAGIC = ";!knitout-2"
 
@@ -107,7 +107,7 @@ def read_knitout(text: str) -> MachineProgram:
     tools: header values other than Position are not read; comments other than `!source:`
     become comment ops; source comments are not turned back into spans). Raises ValueError
     on a line it cannot read."""
-    from knitc.ir.machine import Needle
+    from knitc.codegen.machine import Needle
 
     prog = MachineProgram()
     for lineno, raw in enumerate(text.splitlines(), 1):

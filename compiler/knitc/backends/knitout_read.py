@@ -35,7 +35,7 @@ How Knitout maps onto the IR:
 
 Rules checked here, as the spec states them (§1.7 "spec-level"); machine limits (racking
 range and quarter pitch, needle range, loops, carriers left in, 3+ carriers per pass, the
-hook's direction) belong to `knitc.passes.simulate` and the DAT writer:
+hook's direction) belong to `knitc.codegen.simulate` and the DAT writer:
 
   E910  magic line, header syntax and values (Gauge > 0, Width a positive integer,
         Position one of Left/Center/Right/Keep, Carriers names)
@@ -69,8 +69,8 @@ from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 
+from knitc.codegen.machine import Machine, MachineProgram, Needle, Op
 from knitc.diagnostics import Diagnostics
-from knitc.ir.machine import Machine, MachineProgram, Needle, Op
 from knitc.source import SourceFile, Span
 
 MAX_ERRORS = 100

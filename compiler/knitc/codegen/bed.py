@@ -1,0 +1,92 @@
+"""The needle bed as code generation sees it: which loops are where, and the racking.
+
+Every emitter here writes one machine operation and updates the loop model in the same
+step, so the code passes (cast-on, actions, shaping, cast-off) never disagree with the
+program about where a stitch's loop is. Positions are (bed, needle) pairs with bed one of
+'f', 'b' (hooks) or 'fs', 'bs' (sliders).
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from dataclasses import dataclass, field
+
+from knitc.codegen.machine import MachineProgram
+from knitc.shaping.stitch_graph import StitchGraph
+
+Pos = tuple[str, int]
+BEDS = ("f", "b")
+SLIDERS = ("fs", "bs")
+
+
+class Unsupported(Exception):
+    """Something the code passes cannot plan yet: reported as E602 at the course's line."""
+
+
+@dataclass
+class Bed:
+    g: StitchGraph
+    prog: MachineProgram
+    max_rack: int
+    loops: dict[Pos, int] = field(default_factory=lambda: defaultdict(int))
+    """How many loops each needle holds (cast-on loops included)."""
+    where: dict[int, Pos] = field(default_factory=dict)
+    """Current position of each live stitch's loop."""
+    at: dict[Pos, set[int]] = field(default_factory=lambda: defaultdict(set))
+    """The inverse of `where`: the stitches whose loops are on a needle."""
+    rack: int = 0
+    carrier_at: dict[int, float] = field(default_factory=dict)
+    """Where each carrier in use was left (needle position, between needles)."""
+
+    def span(self, s: int):
+        return self.g.spans[int(self.g.span[s])] if s >= 0 else None
+
+    def set_rack(self, r: int) -> None:
+        if r != self.rack:
+            if abs(r) > self.max_rack:
+                raise Unsupported(f"a transfer needs racking {r}, beyond the machine's "
+                                  f"{self.max_rack}")
+            self.prog.rack(r)
+            self.rack = r
+
+    def xfer(self, src: Pos, dst: Pos, stitch: int) -> None:
+        self.prog.xfer(f"{src[0]}{src[1]}", f"{dst[0]}{dst[1]}", stitch=stitch,
+                       span=self.span(stitch))
+        moved = self.loops.pop(src, 0)
+        self.loops[dst] += moved
+        for s in self.at.pop(src, ()):
+            self.where[s] = dst
+            self.at[dst].add(s)
+
+    def stitch_op(self, kind: str, d: int, pos: Pos, stitch: int, carrier: int) -> None:
+        """knit / tuck / miss at `pos`; `stitch` -1 = a loop of no graph stitch (cast-on)."""
+        needle = f"{pos[0]}{pos[1]}"
+        span = self.span(stitch)
+        if kind == "knit":
+            self.prog.knit(d, needle, (carrier,), stitch=stitch, span=span)
+            for s in self.at.pop(pos, ()):
+                del self.where[s]
+            self.loops[pos] = 1
+        elif kind == "tuck":
+            self.prog.tuck(d, needle, (carrier,), stitch=stitch, span=span)
+            self.loops[pos] += 1
+        elif kind == "miss":
+            self.prog.miss(d, needle, (carrier,), stitch=stitch, span=span)
+        else:
+            raise ValueError(kind)
+        self.carrier_at[carrier] = pos[1] + 0.5 * d
+        if stitch >= 0 and kind != "miss":
+            self.place(stitch, pos)
+
+    def place(self, stitch: int, pos: Pos) -> None:
+        old = self.where.get(stitch)
+        if old is not None:
+            self.at[old].discard(stitch)
+        self.where[stitch] = pos
+        self.at[pos].add(stitch)
+
+    def drop(self, pos: Pos, stitch: int) -> None:
+        self.prog.drop(f"{pos[0]}{pos[1]}", stitch=stitch, span=self.span(stitch))
+        self.loops.pop(pos, None)
+        for s in self.at.pop(pos, ()):
+            del self.where[s]

@@ -1,0 +1,932 @@
+"""Code generation: traced yarn + layout → machine operations (thesis ch. 6.8).
+
+Courses are knitted in trace order; each course is one slice of ch. 6.8 and runs the code
+passes of ch. 6.8.1 in order:
+
+1. shaping: every loop the course knits through is moved to its stitch's needle
+   (`transfers.move`); an increase parent's loop goes to its nearer child. A carrier left
+   inside the region the transfers span is first kicked out of it with a `miss`, so its
+   yarn is not caught by the moving loops (ch. 6.8.2);
+2. yarn start and cast-on (`casting`): a yarn that starts on empty needles is hooked in,
+   caught and released, and a course of empty needles is cast on as its interface asks
+   (`cast_on`, else the machine's); a yarn that starts on live loops is brought in with `in`;
+3. action pass: each stitch's action, as pre / main / post steps (the thesis's modular action
+   pass; user actions will plug in here): a knit through the loops on its needle, a tuck on
+   an empty needle that no loop reaches (a partial cast-on, or the first course of
+   `cast_on: none`), and for increases the node's `increase`: `kickback` (the child without
+   its parent's loop is a tuck in the opposite direction, so the new loop is wrapped around
+   its needle rather than laid in as a yarn-over) or `split` (the parent's loop is split:
+   a new loop through it on its needle while the old loop goes to the facing needle and
+   stands for the other child, which the carriage misses; knitsketching's SPLIT + MISS;
+   the split's post step transfers the old loop on to the other child's needle);
+4. cast-off of the stitches that end, as their interface asks (`cast_off`), then the catching
+   tucks of a new yarn are dropped;
+5. yarn end: the bind-off's tail, a kickback `miss` out of the fabric, `outhook`.
+
+Each kind of pass sets its `x-stitch-number` (`casting.StitchNumbers`); short rows press
+the fabric (`x-presser-mode auto`). Every operation keeps the stitch it came from; the span
+is the stitch's declaration.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from knitc.codegen import casting as cast
+from knitc.codegen.bed import BEDS, Bed, Pos, Unsupported
+from knitc.codegen.machine import Machine, MachineProgram
+from knitc.codegen.steps import Action, continues_in_place, empty_needle_number, run_actions
+from knitc.codegen.transfers import move
+from knitc.diagnostics import Diagnostics
+from knitc.frontend import skeleton as sk
+from knitc.patterning import actions
+from knitc.patterning.instructions import CROSSES, MOVES, cables, neighbour, origin_site, right_left
+from knitc.scheduling import schedule as sc
+from knitc.scheduling import trace as tr
+from knitc.shaping.stitch_graph import COURSE_KINDS, INSTRUCTIONS, StitchGraph
+from knitc.source import Span
+
+SHORT_ROW = COURSE_KINDS.index("short_row")
+PURL, STACK = INSTRUCTIONS.index("P"), INSTRUCTIONS.index("S")
+CARRIED = list(MOVES) + list(CROSSES)
+"""Instructions whose loops `_carry` takes elsewhere after their course."""
+
+
+# ---- options ----------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class CodegenOptions:
+    """The fabrication choices code generation follows, resolved from the skeleton.
+
+    An interface's own `cast_on` / `cast_off` wins over the machine's; `auto` interfaces are
+    simply absent from the maps. Courses carry interface names (`StitchGraph.course_names`),
+    which is how a course finds its setting.
+    """
+
+    cast_on: str = "interlock"
+    cast_off: str = "pickup"
+    increase: str = "kickback"
+    interface_cast_on: Mapping[str, str] = field(default_factory=dict)
+    interface_cast_off: Mapping[str, str] = field(default_factory=dict)
+    interface_span: Mapping[str, Span] = field(default_factory=dict)
+    node_increase: Mapping[str, str] = field(default_factory=dict)
+    numbers: cast.StitchNumbers = cast.STITCH_NUMBERS
+    actions: tuple = ()
+    """The design's actions and the built-ins, ready to run (`actions.Program`), indexed by
+    `StitchGraph.action` (`action_table`)."""
+
+    def cast_on_for(self, names: tuple[str, ...]) -> str:
+        return next((self.interface_cast_on[n] for n in names if n in self.interface_cast_on),
+                    self.cast_on)
+
+    def cast_off_for(self, names: tuple[str, ...]) -> str:
+        return next((self.interface_cast_off[n] for n in names
+                     if n in self.interface_cast_off), self.cast_off)
+
+    def increase_for(self, node: str) -> str:
+        inc = self.node_increase.get(node, "auto")
+        return self.increase if inc == "auto" else inc
+
+
+def options_from_skeleton(skel: sk.Skeleton) -> CodegenOptions:
+    m = skel.machine
+    itfs = skel.interfaces.values()
+    return CodegenOptions(
+        cast_on=m.cast_on, cast_off=m.cast_off, increase=m.increase,
+        interface_cast_on={str(i.id): i.cast_on for i in itfs if i.cast_on != "auto"},
+        interface_cast_off={str(i.id): i.cast_off for i in itfs if i.cast_off != "auto"},
+        interface_span={str(i.id): i.span for i in itfs if i.span is not None},
+        node_increase={name: str(n.props.get("increase", "auto"))
+                       for name, n in skel.nodes.items()},
+        actions=action_table(skel))
+
+
+def action_table(skel: sk.Skeleton) -> tuple:
+    """The actions (`actions.Program`) in the order `StitchGraph.action` numbers them: the
+    design's and the built-in names, by name (`actions.table`)."""
+    return actions.table(skel)
+
+
+# ---- state ------------------------------------------------------------------------------------
+
+@dataclass
+class _Gen:
+    g: StitchGraph
+    sched: sc.Schedule
+    t: tr.Trace
+    carriers: tuple[int, ...]
+    bed: Bed
+    opts: CodegenOptions
+    diags: Diagnostics
+    where_span: Span | None = None
+    """The span of the course being generated, for diagnostics."""
+    carrier_of: dict[int, int] = field(default_factory=dict)
+    """Yarns in action -> their carrier."""
+    presser: str = "off"
+    reverse_conflicts: Counter = field(default_factory=Counter)
+    """Pattern statements (`g.origin`) -> reverse stitches knitted plain because the facing
+    needle holds fabric (a full-gauge tube)."""
+    course_needles: set[Pos] = field(default_factory=set)
+    """Where the stitches of the course being knitted are knitted (set once per course)."""
+    fetch: set[int] = field(default_factory=set)
+    """Siblings of closing splits in a later slice: they fetch the split's old loop."""
+    split_fallbacks: Counter = field(default_factory=Counter)
+    """Nodes -> split increases that had to use a kickback (no free needle to split to)."""
+    warned: set[str] = field(default_factory=set)
+    knit_bed: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int8))
+    knit_needle: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    """Where the schedule knits each stitch (`schedule.knit_positions`)."""
+
+    action_state: object = None
+    """What `patterning.actions` computes once per program (its own business)."""
+    carrying: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    """Per course: whether moves or crosses carry loops after it (`_carry`)."""
+    sides: tuple | None = None
+    """`instructions.right_left(g)`, computed when a course first carries loops."""
+
+    dirs: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int8))
+    """Per visit, the carriage direction on the needles the schedule knits it on (the
+    trace's is the design frame's: a rotated ring or a mirrored row reverses it)."""
+
+    def __post_init__(self) -> None:
+        self.knit_bed, self.knit_needle = sc.knit_positions(self.sched, self.g.n_stitches)
+        self.dirs = sc.carriage_directions(self.sched, self.t.stitch, self.t.yarn)
+        g = self.g
+        self.carrying = np.zeros(g.n_courses, bool)
+        self.carrying[g.course[np.isin(g.instr, CARRIED)]] = True
+
+    def pos(self, s: int) -> Pos:
+        return BEDS[int(self.knit_bed[s])], int(self.knit_needle[s])
+
+    def ctx(self, carrier: int, s: int) -> cast.Ctx:
+        return cast.Ctx(self.bed, carrier, self.opts.numbers, self.bed.span(int(s)))
+
+
+def generate(g: StitchGraph, sched: sc.Schedule, t: tr.Trace, *, machine: Machine,
+             carriers: tuple[int, ...], diags: Diagnostics,
+             options: CodegenOptions | None = None) -> MachineProgram | None:
+    """The machine program for the whole trace; None (with an error) if something cannot
+    be knitted yet."""
+    prog = MachineProgram(machine)
+    gen = _Gen(g, sched, t, carriers, Bed(g, prog, machine.racking_limit),
+               options or CodegenOptions(), diags)
+    try:
+        _run(gen)
+    except Unsupported as exc:
+        diags.error("E602", f"cannot generate machine code: {exc}", gen.where_span,
+                    hint="the transfer planner found no sequence of transfers within the "
+                         "machine's racking limit and free needles; allow more racking "
+                         "(`machine { racking: ... }`) or shape more gradually")
+        return None
+    for origin, n in sorted(gen.reverse_conflicts.items()):
+        span, notes = origin_site(g, origin)
+        diags.warning("W603", f"{n} reverse stitch(es) are knitted plain: the needle facing "
+                      "them holds another loop (on a full-gauge tube, the other side's "
+                      "fabric)", span, notes=notes,
+                      hint="knit this node in half gauge (`gauge: half`) to leave the "
+                           "facing needles empty for reverse stitches")
+    for node, n in sorted(gen.split_fallbacks.items()):
+        ids = np.nonzero(g.node == node)[0]
+        diags.warning("W602", f"{n} split increase(s) of `{g.node_names[node]}` use a kickback "
+                      "increase: no needle on the other bed was free to split onto, or the "
+                      "yarn would have floated past two split stitches in a row",
+                      gen.bed.span(int(ids[0])) if ids.size else None,
+                      hint="split increases need the facing needle free: use half gauge, "
+                           "or `increase: kickback`")
+    return prog
+
+
+def _node_span(gen: _Gen, node: int) -> Span | None:
+    ids = np.nonzero(gen.g.node == node)[0]
+    return gen.bed.span(int(ids[0])) if ids.size else None
+
+
+def _run(gen: _Gen) -> None:
+    """Courses in trace order, each cut where the schedule's slices begin: before each slice
+    the shaping pass puts the loops where its layout wants them; a course's cast-on comes
+    with its first part and its cast-off after its last."""
+    g, t = gen.g, gen.t
+    free = list(gen.carriers) + [c for c in range(1, 11) if c not in gen.carriers]
+    course_of_visit = g.course[t.stitch]
+    course_cuts = np.nonzero(np.diff(course_of_visit) != 0)[0] + 1
+    slices = gen.sched.slices
+    cuts = np.union1d(course_cuts, slices.visit[1:])
+    course_bounds = np.r_[0, course_cuts, t.n_visits]
+    placements = sc.placements(g, gen.sched)
+    slice_starts = set(slices.visit.tolist())
+    ci = 0  # index of the current course in course_bounds
+    chunk = np.zeros(0, np.int64)
+    primary: dict[int, int] = {}
+    ctx: cast.Ctx | None
+    catch: list[Pos]
+    carrier, ctx, catch = -1, None, []
+    for sub in np.split(np.arange(t.n_visits), cuts):
+        if sub.size == 0:
+            continue
+        v0 = int(sub[0])
+        ids = t.stitch[sub]
+        gen.where_span = gen.bed.span(int(ids[0]))
+        prog = gen.bed.prog
+        if v0 in slice_starts:
+            _, aligned, represented = next(placements)
+            with prog.code_pass("alignment"):
+                _place(gen, aligned, represented, int(ids[0]))
+        if v0 == course_bounds[ci]:  # a course begins
+            chunk = np.arange(course_bounds[ci], course_bounds[ci + 1])
+            gen.course_needles = {gen.pos(int(x)) for x in t.stitch[chunk]}
+            ci += 1
+            primary = {}
+            yarn = int(t.yarn[v0])
+            new = yarn not in gen.carrier_of
+            if new:
+                if not free:
+                    raise Unsupported("more than 10 yarns would be in use at once")
+                gen.carrier_of[yarn] = free.pop(0)
+            carrier = gen.carrier_of[yarn]
+            ctx = gen.ctx(carrier, int(ids[0]))
+            catch = []
+            cids = t.stitch[chunk]
+            if all(int(g.wale_prev[s, 0]) < 0 for s in cids):
+                catch = _cast_on(gen, ctx, chunk, new)
+            elif new:
+                with prog.code_pass("yarn_start"):
+                    prog.in_((carrier,), stitch=int(cids[0]), span=ctx.span)
+            _presser(gen, int(g.course[cids[0]]))
+        assert ctx is not None  # the first visit begins a course
+        with prog.code_pass("shaping"):
+            primary.update(_shaping(gen, sub))
+        with prog.code_pass("action"):
+            _action_pass(gen, ctx, sub, primary)
+        # the yarn has caught on the first part's stitches: the catching tucks go before the
+        # next slice's shaping can need their needles
+        with prog.code_pass("yarn_start"):
+            for p in catch:
+                if gen.bed.loops.get(p, 0):
+                    gen.bed.drop(p, -1)
+        catch = []
+        if int(sub[-1]) + 1 == course_bounds[ci]:  # the course is done
+            with prog.code_pass("action"):  # the moves and crosses finish the instructions
+                _carry(gen, chunk)
+            _finish_course(gen, ctx, chunk, carrier, free)
+        else:
+            # Ending stitches wait for the course's cast-off (one chain around it), unless
+            # the schedule lets a later slice of the course knit on one of their needles:
+            # then this slice gets its own cast-off pass (ch. 6.8), with its own tail.
+            ends = [int(x) for x in ids if g.wale_next[x, 0] < 0]
+            if ends and _reused_later(gen, ends, t.stitch[int(sub[-1]) + 1:course_bounds[ci]]):
+                with prog.code_pass("cast_off"):
+                    left, last_dir = _cast_off(gen, ctx, sub, ends)
+                if left >= 0:
+                    with prog.code_pass("yarn_end"):
+                        _tail_and_drop(ctx, left, last_dir)
+    leftover = [pos for pos, n in gen.bed.loops.items() if n > 0]
+    if leftover:
+        raise Unsupported(f"{len(leftover)} loops would be left on the needles")
+
+
+def _lead_out(gen: _Gen, ctx: cast.Ctx, sub: np.ndarray) -> None:
+    """End a pass (its main steps) past the needle where its yarn's next pass starts, the
+    other way: the carrier is then already on the side that pass starts from. Without it a
+    Shima DAT needs a carrier move of its own (a kickback row, two with the converter's
+    rules) before the next pass: at a half-gauge tube's fold, a purl knitted on the facing
+    needle leaves the carrier beyond the next round's first needle."""
+    t = gen.t
+    v = int(sub[-1])
+    w = v + 1
+    if w < t.n_visits and t.yarn[w] == t.yarn[v]:
+        _lead_to(gen, ctx, int(gen.dirs[v]), gen.pos(int(t.stitch[w]))[1],
+                 int(gen.dirs[w]), int(t.stitch[v]))
+
+
+def _lead_to(gen: _Gen, ctx: cast.Ctx, d: int, there: int, nd: int, stitch: int) -> None:
+    """Miss on in direction `d` to needle `there` when the yarn's next pass starts there
+    going `nd` = -d and the carrier has not passed it yet (`_lead_out`)."""
+    here = gen.bed.carrier_at.get(ctx.carrier)
+    if nd != -d or here is None or (here - (there - 0.5 * nd)) * nd <= 0:
+        return
+    if 0 <= there < gen.bed.prog.machine.needles:
+        cast.emit(ctx, "miss", d, ("f", there), stitch)
+
+
+def _reused_later(gen: _Gen, ends: list[int], rest: np.ndarray) -> bool:
+    """Whether a stitch still to be knitted in this course lands on an ending loop's needle."""
+    held = {gen.bed.where.get(x) for x in ends}
+    return any(gen.pos(int(x)) in held for x in rest)
+
+
+def _finish_course(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, carrier: int,
+                   free: list[int]) -> None:
+    """Cast off what ends, end the yarn if it ends."""
+    g, t = gen.g, gen.t
+    ids = t.stitch[chunk]
+    ends = [int(s) for s in ids if g.wale_next[s, 0] < 0 and int(s) in gen.bed.where]
+    prog = gen.bed.prog
+    with prog.code_pass("cast_off"):
+        left, last_dir = _cast_off(gen, ctx, chunk, ends) if ends else (-1, 0)
+    with prog.code_pass("yarn_end"):
+        if t.flags[chunk[-1]] & tr.END:
+            tail_pos = cast.tail(ctx, left, last_dir) if left >= 0 else None
+            cast.yarn_end(ctx, tail_pos, left if left >= 0 else int(ids[-1]))
+            del gen.carrier_of[int(t.yarn[chunk[-1]])]
+            free.append(carrier)  # reuse carriers last: a carrier brought back keeps its yarn
+        elif left >= 0:
+            _tail_and_drop(ctx, left, last_dir)
+
+
+# ---- shaping and alignment ----------------------------------------------------------------------
+
+def _place(gen: _Gen, aligned: tuple, represented: tuple, first: int) -> None:
+    """The alignment and shaping passes before a slice: held loops move out of the way, then
+    every loop the slice's cycle stands for goes where the slice's layout puts it (the
+    schedule guarantees no two of them meet on a needle)."""
+    bed = gen.bed
+    moves = []
+    for loops, beds, needles in (aligned, represented):
+        for s, b, n in zip(loops.tolist(), beds.tolist(), needles.tolist(), strict=True):
+            here = bed.where.get(s)
+            if here is not None and here != (BEDS[b], n) \
+                    and not (here[1] == n and _stays(gen, s)):
+                moves.append((s, here, (BEDS[b], n)))
+    if moves:
+        _park(gen, moves, gen.pos(first)[1])
+        bed.prog.stitch_number(gen.opts.numbers.transfer)
+        move(bed, moves)
+
+
+def _shaping(gen: _Gen, sub: np.ndarray) -> dict[int, int]:
+    """Make sure every parent loop of the stitches about to be knitted is on its child's
+    needle (the schedule already put it there, except where an increase's loop stands for
+    a child of a later slice); returns parent -> the child that receives its loop."""
+    g, bed = gen.g, gen.bed
+    ids = gen.t.stitch[sub]
+    in_sub = set(int(s) for s in ids)
+    primary: dict[int, int] = {}
+    moves = []
+    for p in np.unique(g.wale_prev[ids]):
+        p = int(p)
+        if p < 0 or p not in bed.where:
+            continue
+        kids = [int(k) for k in g.wale_next[p] if int(k) in in_sub]
+        if not kids:
+            continue
+        here = bed.where[p]
+        child = next((k for k in kids if gen.pos(k) == here), kids[0])
+        primary[p] = child
+        if here != gen.pos(child) and not (here[1] == gen.pos(child)[1] and _stays(gen, p)):
+            moves.append((p, here, gen.pos(child)))
+    if moves:
+        _park(gen, moves, gen.pos(int(ids[0]))[1])
+        bed.prog.stitch_number(gen.opts.numbers.transfer)
+        lifted = _lift_stacks(gen, ids, moves)
+        move(bed, moves)
+        for s, pos, away in lifted:  # S: back on top of the loops that arrived
+            bed.set_rack(0)
+            bed.xfer(away, pos, s)
+    return primary
+
+
+def _lift_stacks(gen: _Gen, ids: np.ndarray, moves: list) -> list[tuple[int, Pos, Pos]]:
+    """S (stack, ch. 4.2.2 step 5): a stitch whose loop a move joins is lifted to the
+    facing needle (or its slider) before the moved loop arrives, and put back after, so it
+    ends on top of the stack. Returns (stitch, needle, where it waits)."""
+    g, bed = gen.g, gen.bed
+    arriving = {m[2] for m in moves}
+    out = []
+    for k in ids.tolist():
+        if int(g.wale_prev[k, 1]) < 0 or gen.pos(k) not in arriving:
+            continue
+        for p in g.wale_prev[k].tolist():
+            pos = bed.where.get(p)
+            if int(g.instr[p]) != STACK or pos != gen.pos(k):
+                continue
+            away = _free_facing(gen, pos)
+            bed.set_rack(0)
+            bed.xfer(pos, away, p)
+            out.append((p, pos, away))
+    return out
+
+
+def _free_facing(gen: _Gen, pos: Pos) -> Pos:
+    """The needle facing `pos` on the other bed if it is free, else its slider."""
+    other = "b" if pos[0] == "f" else "f"
+    for cand in ((other, pos[1]), (other + "s", pos[1])):
+        if not gen.bed.loops.get(cand, 0) and cand not in gen.course_needles:
+            return cand
+    raise Unsupported(f"no free needle or slider faces {pos[0]}{pos[1]} to carry its loop")
+
+
+def _carry(gen: _Gen, chunk: np.ndarray) -> None:
+    """The moves and crosses of a course, after it is knitted (ch. 4.2.2 steps 3-5): every
+    loop that goes elsewhere leaves for the facing needle (its slider on a full-gauge tube)
+    at racking 0, then comes back on its new needle, one racking per displacement: a
+    cable's upper run first (its loops end in front where the runs cross), its relief
+    stitches, its lower run, then the moves. An S stitch a move lands on is lifted before
+    and put back after, so its loop ends on top. Then each needle's loops stand for the
+    stitch knitted there (`instructions`): an emptied needle's next stitch is a yarn-over,
+    a needle two loops share knits them together."""
+    g, bed = gen.g, gen.bed
+    ids = gen.t.stitch[chunk]
+    codes = g.instr[ids]
+    if not gen.carrying[int(g.course[ids[0]])]:
+        return
+    if gen.sides is None:
+        gen.sides = right_left(g)
+    right, left = gen.sides
+    home = {int(x): gen.pos(int(x)) for x in ids}
+    rounds: list[list[tuple[int, Pos, Pos]]] = [[], [], [], []]  # upper, relief, lower, moves
+    involved: set[int] = set()
+    for cab in cables(g, ids, right, left):
+        runs = (0, 2) if cab.upper_first else (2, 0)
+        for i, (x, j) in enumerate(zip(cab.group, cab.targets(), strict=True)):
+            involved.add(x)
+            part = runs[0] if i < cab.first else 1 if i < cab.first + cab.relief else runs[1]
+            if j != i:
+                rounds[part].append((x, home[x], home[cab.group[j]]))
+    for x in ids[np.isin(codes, list(MOVES))].tolist():
+        t = neighbour(right, left, x, MOVES[int(g.instr[x])])
+        involved |= {x, t}
+        rounds[3].append((x, home[x], home[t]))
+    # a loop is carried from its needle, or (a B move's) from the needle facing it
+    moves = [m for part in rounds for m in part
+             if bed.where.get(m[0]) in (m[1], ("b" if m[1][0] == "f" else "f", m[1][1]))]
+    if not moves:
+        return
+    _park(gen, moves, gen.pos(int(ids[-1]))[1])
+    bed.prog.stitch_number(gen.opts.numbers.transfer)
+    bed.set_rack(0)
+    waiting = {}
+    for x, here, _ in moves:
+        if bed.where[x] != here:  # a B move's loop, knitted on the facing needle
+            waiting[x] = bed.where[x]
+            continue
+        waiting[x] = _free_facing(gen, here)
+        bed.xfer(here, waiting[x], x)
+    landing = {dst for x, _, dst in moves if int(g.instr[x]) in MOVES}
+    lifted = []
+    for t in sorted(involved):
+        if int(g.instr[t]) == STACK and home[t] in landing and bed.where.get(t) == home[t]:
+            lifted.append((t, _free_facing(gen, home[t])))
+            bed.xfer(home[t], lifted[-1][1], t)
+    for round_moves in rounds:
+        for x, here, dst in sorted(round_moves, key=lambda m: m[2][1] - m[1][1]):
+            if x in waiting:
+                bed.set_rack(dst[1] - here[1] if here[0] == "f" else here[1] - dst[1])
+                bed.xfer(waiting[x], dst, x)
+    bed.set_rack(0)
+    for t, away in lifted:
+        bed.xfer(away, home[t], t)
+    for x in involved:  # each needle's loops now stand for the stitch knitted there
+        at = bed.where.pop(x, None)
+        if at is not None:
+            bed.at[at].discard(x)
+    for x in involved:
+        if bed.loops.get(home[x], 0):
+            bed.place(x, home[x])
+
+
+def _park(gen: _Gen, moves: list, toward: int) -> None:
+    """Kick every carrier left strictly inside the span of `moves` out of it, to the side
+    nearer `toward` (where the next knitting starts): a `miss` one needle outside, on a
+    needle the transfers do not touch, so the carrier does not follow a moved loop."""
+    idx = [m[1][1] for m in moves] + [m[2][1] for m in moves]
+    lo, hi = min(idx), max(idx)
+    needles = gen.bed.prog.machine.needles
+    for carrier in sorted(gen.carrier_of.values()):
+        at = gen.bed.carrier_at.get(carrier)
+        if at is None or not lo < at < hi:
+            continue
+        sides = sorted([(lo - 1, -1), (hi + 1, 1)], key=lambda s: abs(s[0] - toward))
+        for needle, d in sides:
+            if 0 <= needle < needles:
+                cast.emit(gen.ctx(carrier, -1), "miss", d, ("f", needle))
+                break
+
+
+# ---- cast-on ----------------------------------------------------------------------------------
+
+def _entries(gen: _Gen, chunk: np.ndarray) -> list[cast.Entry]:
+    return [cast.Entry(gen.pos(int(s)), int(d) or 1, int(s))
+            for s, d in zip(gen.t.stitch[chunk], gen.dirs[chunk], strict=True)]
+
+
+def _cast_on(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, new: bool) -> list[Pos]:
+    """Yarn start (for a new yarn) and cast-on of a course of empty needles; returns the
+    catching needles to drop after the course."""
+    g = gen.g
+    c = int(g.course[gen.t.stitch[chunk[0]]])
+    entries = _entries(gen, chunk)
+    kind = gen.opts.cast_on_for(g.course_names.get(c, ()))
+    circular = bool(g.course_circular[c])
+    if kind == "precast":
+        node = int(g.course_node[c])
+        cover = _precast_cover(gen, node)
+        cover = {p for p in cover if not gen.bed.loops.get(p, 0)} | {e.pos for e in entries}
+        plan = cast.plan_precast(entries, cover)
+    else:
+        plan = cast.plan_cast_on(kind, entries, circular)
+    catch: list[Pos] = []
+    if new:
+        busy = {st.pos for st in plan} | {e.pos for e in entries}
+        # a purl (or an action that transfers) of the first course needs the needle
+        # facing it free
+        progs = gen.opts.actions
+        busy |= {("b" if e.pos[0] == "f" else "f", e.pos[1]) for e in entries
+                 if int(g.instr[e.stitch]) == PURL or (
+                     0 <= int(g.action[e.stitch]) < len(progs)
+                     and getattr(progs[int(g.action[e.stitch])], "transfers", False))}
+        with gen.bed.prog.code_pass("yarn_start"):
+            catch = cast.yarn_start(ctx, plan[0] if plan else entries[0], busy,
+                                    entries[0].stitch)
+    with gen.bed.prog.code_pass("cast_on"):
+        cast.emit_plan(ctx, plan)
+        if plan:  # end past where the first course starts, as an action pass does
+            e0 = entries[0]
+            _lead_to(gen, ctx, plan[-1].dir, e0.pos[1], e0.dir, plan[-1].stitch)
+    return catch
+
+
+def _precast_cover(gen: _Gen, node: int) -> set[Pos]:
+    """The needles a precast may fill: where the node's stitches will be knitted, except
+    needles that the schedule's shaping moves reach or pass (in a slice of the node) before
+    their stitch is knitted (a loop of no stitch cannot be carried along with the layout,
+    it would block the transfers), and needles a closing split brings its old loop to (a
+    cast-on loop there would stand in for the loop that closes the end)."""
+    g, sched = gen.g, gen.sched
+    ids = np.nonzero(g.node == node)[0]
+    spans = [(k, min(nf.min(), nt.min()), max(nf.max(), nt.max()))
+             for k, _lo, _bf, nf, _bt, nt in sc.moves(g, sched)
+             if int(sched.slices.node[k]) == node]
+    needle = gen.knit_needle[ids].astype(np.int64)
+    # the other side's stitch of a closed end opening into a tube knits through the old
+    # loop of a split (`_increases`)
+    kids = g.wale_next[ids]
+    two = (kids >= 0).all(1)
+    across = two & (g.side[np.maximum(kids[:, 0], 0)] != g.side[np.maximum(kids[:, 1], 0)])
+    fetched = {gen.pos(int(k)) for p, row in zip(ids[across].tolist(), kids[across].tolist())
+               for k in row if int(g.side[k]) != int(g.side[p])}
+    blocked = np.zeros(ids.size, bool)
+    if spans:
+        k, lo, hi = (np.array(c, np.int64) for c in zip(*spans, strict=True))
+        when = sc.knit_slices(sched, g.n_stitches)[ids]
+        blocked = ((k <= when[:, None]) & (lo <= needle[:, None])
+                   & (needle[:, None] <= hi)).any(axis=1)  # type: ignore[assignment]
+    return {gen.pos(int(x)) for x in ids[~blocked]} - fetched
+
+
+# ---- action pass ------------------------------------------------------------------------------
+
+def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int, int]) -> None:
+    incs = _increases(gen, chunk, primary)
+    for s in gen.t.stitch[chunk].tolist():
+        if s in gen.fetch:
+            gen.fetch.discard(s)
+            incs[s] = ("fetch",)
+    acts = [_action(gen, ctx, int(s), int(d) or 1, incs.get(int(s)))
+            for s, d in zip(gen.t.stitch[chunk], gen.dirs[chunk], strict=True)]
+    parts = actions.prepare_pass(gen, acts)  # one, or per bed (`split_by_side`)
+    if parts and parts[-1]:
+        parts[-1][-1].main.append(lambda: _lead_out(gen, ctx, chunk))
+    for part in parts:
+        run_actions(part)
+    if gen.bed.rack:  # a user action's transfers may leave the machine racked
+        gen.bed.set_rack(0)
+
+
+def _action(gen: _Gen, ctx: cast.Ctx, s: int, d: int, inc: tuple | None) -> Action:
+    """The built-in action of stitch `s` visited in direction `d`."""
+    bed, numbers = gen.bed, gen.opts.numbers
+    pos = gen.pos(s)
+    half = int(gen.g.course_gauge[int(gen.g.course[s])]) == 2
+    plain = numbers.knit_half_gauge if half else numbers.knit
+
+    def knit() -> None:
+        if bed.loops.get(pos, 0):
+            cast.emit(ctx, "knit", d, pos, s, plain)
+        else:  # nothing to knit through: a loop laid onto the empty needle
+            cast.emit(ctx, "tuck", d, pos, s, empty_needle_number(gen, s, plain))
+
+    def kickback() -> None:
+        if bed.loops.get(pos, 0):
+            knit()
+        else:  # the carrier passes the needle in the pass, then comes back to tuck it
+            cast.emit(ctx, "miss", d, pos, s)
+            cast.emit(ctx, "tuck", -d, pos, s, numbers.increase)
+
+    def missed() -> None:
+        cast.emit(ctx, "miss", d, pos, s)
+
+    if inc is None and int(gen.g.action[s]) >= 0:
+        user = actions.lower(gen, ctx, s, d, pos)
+        if user is not None:
+            return user
+    if inc is None:
+        instr = INSTRUCTIONS[int(gen.g.instr[s])]
+        if instr == "P" or instr[0] == "B":  # reverse stitches; a B move is knitted reversed
+            # and its loop waits on the facing needle for `_carry`, which takes it from there
+            return _purl(gen, ctx, s, d, pos, plain, keep=instr[0] == "B") \
+                or Action(s, main=[knit])
+        if instr == "T":
+            return Action(s, main=[lambda: cast.emit(ctx, "tuck", d, pos, s, plain)])
+        if instr == "M":
+            return Action(s, main=[lambda: _miss(gen, ctx, s, d, pos)])
+        # K; the F moves, the crosses and S are knitted here and carried after the course
+        return Action(s, main=[knit])
+    if inc[0] == "kickback":
+        return Action(s, main=[kickback])
+    if inc[0] == "laid":
+        return Action(s, main=[knit])
+    if inc[0] == "fetch":
+        return Action(s, main=[lambda: _fetch(gen, s), knit])
+    if inc[0] == "miss":
+        return Action(s, main=[missed])
+    _, target, sibling = inc
+    return Action(s, main=[lambda: _split(gen, ctx, s, d, target, sibling)],
+                  post=[lambda: _unsplit(gen, target, sibling)])
+
+
+def _purl(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, number: int,
+          keep: bool = False) -> Action | None:
+    """P: a knit made from the other bed (ch. 4.2's lowering): the loop is transferred to the
+    facing needle (pre), knitted there (main) and the new loop transferred back (post). The
+    facing needle must be empty: always on a flat piece, on a tube only in half gauge; else
+    None (the stitch is knitted plain, and W603 says so)."""
+    bed, numbers = gen.bed, gen.opts.numbers
+    other: Pos = ("b" if pos[0] == "f" else "f", pos[1])
+    own = set(int(p) for p in gen.g.wale_prev[s] if p >= 0)
+    if (bed.loops.get(other, 0) and not bed.at.get(other, set()) <= own) \
+            or other in gen.course_needles:
+        assert gen.g.origin is not None  # filled in by StitchGraph.__post_init__
+        gen.reverse_conflicts[int(gen.g.origin[s])] += 1
+        return None
+    stays = keep or _purl_continues(gen, s)
+
+    def pre() -> None:
+        if bed.loops.get(pos, 0):
+            bed.prog.stitch_number(numbers.transfer)
+            bed.set_rack(0)
+            bed.xfer(pos, other, s)
+
+    def main() -> None:
+        if bed.loops.get(other, 0):
+            cast.emit(ctx, "knit", d, other, s, number)
+        else:
+            cast.emit(ctx, "tuck", d, other, s, empty_needle_number(gen, s, number))
+
+    def post() -> None:
+        bed.prog.stitch_number(numbers.transfer)
+        bed.set_rack(0)
+        bed.xfer(other, pos, s)
+
+    return Action(s, pre=[pre], main=[main], post=[] if stays else [post])
+
+
+def _stays(gen: _Gen, s: int) -> bool:
+    """Whether the loop of `s` waits on the facing needle for the next stitch of its wale
+    (a flat purl, or an action with `transfer_back: false`), rather than going home."""
+    return _purl_continues(gen, s) or actions.keeps_loop(gen, s)
+
+
+def _purl_continues(gen: _Gen, s: int) -> bool:
+    """Whether purl `s`'s new loop stays on the facing needle for the next purl of its
+    wale (`steps.continues_in_place`)."""
+    kid = continues_in_place(gen, s)
+    return kid >= 0 and int(gen.g.instr[kid]) == PURL and int(gen.g.action[kid]) < 0
+
+
+def _miss(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos) -> None:
+    """M: the needle does not knit, its loop stays and stands for `s` (a slip stitch: the
+    next course knits through the old loop, and the yarn floats past)."""
+    bed = gen.bed
+    cast.emit(ctx, "miss", d, pos, s)
+    for x in bed.at.pop(pos, set()):
+        del bed.where[x]
+    if bed.loops.get(pos, 0):
+        bed.place(s, pos)
+
+
+def _increases(gen: _Gen, chunk: np.ndarray, primary: dict[int, int]) -> dict[int, tuple]:
+    """How each increase of the course is made: the child without its parent's loop gets a
+    ("kickback",) (("laid",), a tuck in the pass, across a gauge change), or, for split increases with a free facing needle, the child with the
+    loop gets ("split", facing needle, sibling) and its sibling ("miss",). A child whose
+    needle already holds a loop (a precast one) is a plain knit.
+
+    A missed sibling holds no yarn of this course, so two neighbours are never both missed:
+    the yarn would float across them (a tube growing out of a collapsed end would float
+    across its whole back bed); the second one uses a kickback.
+
+    An increase whose children lie on the two sides of the fabric (a closed tube end
+    opening into a tube) is always a split, straight onto the sibling's needle when it
+    faces, else onto a free needle near it, and the sibling, knitted later in the course,
+    fetches the old loop and knits through it (("fetch",)): a kickback there would leave
+    the other side's stitch held by nothing but the yarn, and a row of them is an open end,
+    not a closed one. A sibling in a later slice of the course is remembered in
+    `gen.fetch`."""
+    g, bed = gen.g, gen.bed
+    ids = [int(s) for s in gen.t.stitch[chunk]]
+    in_course = set(ids)
+    busy = {gen.pos(s) for s in ids}
+    busy |= {gen.pos(int(k)) for s in ids for k in g.wale_next[s] if k >= 0}
+    visit = {s: i for i, s in enumerate(ids)}
+    missed: set[int] = set()
+    out: dict[int, tuple] = {}
+    course = int(g.course[ids[0]])
+    for p, c1 in sorted(primary.items(), key=lambda pc: visit.get(pc[1], 0)):
+        kids = [int(k) for k in g.wale_next[p] if k >= 0]
+        if len(kids) != 2:
+            continue
+        c2 = kids[0] if kids[1] == c1 else kids[1]
+        src, sib = gen.pos(c1), gen.pos(c2)
+        if c1 in in_course and int(g.side[c1]) != int(g.side[c2]) \
+                and int(g.course[c2]) == course and not bed.loops.get(sib, 0) \
+                and bed.where.get(p) == src and visit[c1] < visit.get(c2, len(ids)):
+            target = _split_target(gen, src, sib, busy)
+            if target is not None:  # c2, later in this course, knits through the old loop
+                out[c1] = ("split", target, c2)
+                busy.add(target)
+                if c2 in in_course:
+                    out[c2] = ("fetch",)
+                else:
+                    gen.fetch.add(c2)
+                continue
+        if c2 not in in_course or bed.loops.get(gen.pos(c2), 0):
+            continue
+        node = int(g.node[c2])
+        if gen.opts.increase_for(g.node_names[node]) == "split" \
+                and bed.where.get(p) == gen.pos(c1):
+            lonely = not ({int(g.cprev[c2]), int(g.cnext[c2])} & missed)
+            target = _split_target(gen, gen.pos(c1), gen.pos(c2), busy) if lonely else None
+            if target is not None:
+                out[c1] = ("split", target, c2)
+                out[c2] = ("miss",)
+                missed.add(c2)
+                busy.add(target)
+                continue
+            gen.split_fallbacks[node] += 1
+        # across a gauge change the finer gauge's new loops are laid in the pass, every
+        # other needle, like a cast-on: a kickback each would reverse the carriage twice
+        out[c2] = ("laid",) if g.course_gauge[g.course[c2]] != g.course_gauge[g.course[p]] \
+            else ("kickback",)
+    return out
+
+
+def _split_target(gen: _Gen, src: Pos, sib: Pos, busy: set[Pos]) -> Pos | None:
+    """A free hook on the other bed, within racking reach of `src`, as near the sibling's
+    needle as possible (the old loop waits there for the sibling's next course). Sliders are
+    not used: the independent machine does not model a split onto a slider."""
+    other = "b" if src[0] == "f" else "f"
+    n, m = src[1], sib[1]
+    if sib[0] == other:  # an increase across the fold: split straight onto the sibling
+        return sib if abs(m - n) <= gen.bed.max_rack else None
+    needles = gen.bed.prog.machine.needles
+    for k in sorted(range(min(n, m) - 1, max(n, m) + 2), key=lambda k: (abs(k - m), abs(k - n))):
+        q = (other, k)
+        if max(abs(k - n), abs(k - m)) > gen.bed.max_rack or not 0 <= k < needles:
+            continue
+        if q not in busy and not gen.bed.loops.get(q, 0):
+            return q
+    return None
+
+
+def _split(gen: _Gen, ctx: cast.Ctx, s: int, d: int, target: Pos, sibling: int) -> None:
+    """`split`: a new loop for `s` through its parent's loop, which moves to `target` and
+    becomes the loop of `sibling`."""
+    bed = gen.bed
+    src = gen.pos(s)
+    # at racking r, back needle k faces front needle k + r
+    r = src[1] - target[1] if src[0] == "f" else target[1] - src[1]
+    bed.prog.stitch_number(gen.opts.numbers.increase)
+    bed.set_rack(r)
+    bed.prog.split(d, f"{src[0]}{src[1]}", f"{target[0]}{target[1]}", (ctx.carrier,),
+                   stitch=s, span=bed.span(s))
+    bed.loops[target] += bed.loops.pop(src, 0)
+    for x in bed.at.pop(src, ()):
+        del bed.where[x]
+    bed.loops[src] = 1
+    bed.place(s, src)
+    bed.place(sibling, target)
+    bed.carrier_at[ctx.carrier] = src[1] + 0.5 * d
+    bed.set_rack(0)
+
+
+def _fetch(gen: _Gen, s: int) -> None:
+    """Bring the loop standing for `s` (a closing split's old loop) to its needle, if it is
+    not there yet."""
+    bed, home = gen.bed, gen.pos(s)
+    here = bed.where.get(s)
+    if here is None or here == home:
+        return
+    _park(gen, [(s, here, home)], home[1])
+    bed.prog.stitch_number(gen.opts.numbers.transfer)
+    move(bed, [(s, here, home)])
+    bed.set_rack(0)
+
+
+def _unsplit(gen: _Gen, target: Pos, sibling: int) -> None:
+    """The split's post step: the old loop goes from the facing needle to its own (the
+    sibling's) needle, so the next course finds every loop where the layout put it."""
+    bed, home = gen.bed, gen.pos(sibling)
+    if home == target or bed.where.get(sibling) != target or bed.loops.get(home, 0):
+        return
+    _park(gen, [(sibling, target, home)], home[1])
+    bed.prog.stitch_number(gen.opts.numbers.transfer)
+    bed.set_rack(home[1] - target[1] if home[0] == "f" else target[1] - home[1])
+    bed.xfer(target, home, sibling)
+    bed.set_rack(0)
+
+
+def _presser(gen: _Gen, c: int) -> None:
+    """Short rows press the fabric down (the loops of the rows not knitted would lift it);
+    `auto` presses only on single-bed passes, where the presser cannot catch the other bed."""
+    mode = "auto" if int(gen.g.course_kind[c]) == SHORT_ROW else "off"
+    if mode != gen.presser:
+        gen.bed.prog.presser(mode)
+        gen.presser = mode
+
+
+# ---- cast-off ---------------------------------------------------------------------------------
+
+def _cast_off(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, ends: list[int]) -> tuple[int, int]:
+    """Bind off the stitches that end, run by run from the last one knitted; returns the
+    stitch whose loop is left for the yarn's tail (-1: none) and its last knit direction."""
+    g, t = gen.g, gen.t
+    ids = [int(s) for s in t.stitch[chunk]]
+    c = int(g.course[ids[0]])
+    names = g.course_names.get(c, ())
+    kind = gen.opts.cast_off_for(names)
+
+    def neighbours(a: int, b: int) -> bool:
+        return int(g.cnext[a]) == b or int(g.cprev[a]) == b
+
+    runs = cast.runs(ends, neighbours, bool(g.course_circular[c]))
+    if kind == "none":
+        for run in runs:
+            cast.drop_run(ctx, run)
+        _warn_dropped(gen, names, len(ends), ends[0])
+        return -1, 0
+    order = {s: i for i, s in enumerate(ids)}
+    end_set = set(ends)
+    last_dir = int(gen.dirs[chunk[-1]]) or 1
+    left, left_dir = -1, 0
+    todo = list(reversed(runs))
+    while todo:
+        run = _nearest_run(gen, todo, ctx.carrier)
+        st, d = cast.cast_off_run(gen.ctx(ctx.carrier, run[-1]), kind, run,
+                                  _closing(gen, run, end_set, order), last_dir)
+        last_dir = d or last_dir
+        if not todo:
+            left, left_dir = st, d
+        elif st >= 0:
+            _tail_and_drop(ctx, st, d)
+    return left, left_dir
+
+
+def _nearest_run(gen: _Gen, todo: list[list[int]], carrier: int) -> list[int]:
+    """Take from `todo` the run to bind off next: the one with an end nearest the carrier
+    (so the yarn does not float back across the course), oriented so that its chain (which
+    starts from the run's last stitch) starts at that end. Ties keep yarn order reversed:
+    the last run knitted, from its last stitch."""
+    at = gen.bed.carrier_at.get(carrier)
+    if at is None:
+        return todo.pop(0)
+
+    def dist(s: int) -> float:
+        p = gen.bed.where.get(s)
+        return abs(p[1] - at) if p is not None else float("inf")
+
+    best = min(range(len(todo)), key=lambda i: (min(dist(todo[i][-1]), dist(todo[i][0])), i))
+    run = todo.pop(best)
+    return run if dist(run[-1]) <= dist(run[0]) else run[::-1]
+
+
+def _closing(gen: _Gen, run: list[int], ends: set[int], order: dict[int, int]) -> int:
+    """A live course neighbour of the run's first stitch (the bind-off's last), to close the
+    chain onto: the one knitted before it, else any."""
+    g = gen.g
+    first = run[0]
+    cands = [int(n) for n in (g.cprev[first], g.cnext[first])
+             if n >= 0 and int(n) not in ends and int(n) in gen.bed.where]
+    cands.sort(key=lambda n: (order.get(n, len(order)) > order.get(first, 0), n))
+    return cands[0] if cands else -1
+
+
+def _tail_and_drop(ctx: cast.Ctx, stitch: int, d: int) -> None:
+    pos = cast.tail(ctx, stitch, d)
+    if pos is not None and ctx.bed.loops.get(pos, 0):
+        ctx.bed.drop(pos, stitch)
+
+
+def _warn_dropped(gen: _Gen, names: tuple[str, ...], n: int, s: int) -> None:
+    key = names[0] if names else f"course {int(gen.g.course[s])}"
+    if key in gen.warned:
+        return
+    gen.warned.add(key)
+    where = f"`{names[0]}`" if names else "a course"
+    span = gen.opts.interface_span.get(names[0]) if names else None
+    gen.diags.warning("W601", f"{where} is not cast off (`cast_off: none`): its {n} loop(s) "
+                      "are dropped and the edge will unravel unless it is secured off the "
+                      "machine", span or gen.bed.span(s),
+                      hint="use `cast_off: pickup`, `direct` or `reverse` for a bound edge")

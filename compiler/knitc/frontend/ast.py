@@ -1,0 +1,413 @@
+"""The knitc abstract syntax tree.
+
+Frozen dataclasses, one per construct of `grammars/knit.lark`. Every node carries the span
+of the text it came from; spans are excluded from equality so that `parse(fmt(x)) == x`
+states exactly "the formatter changes layout, never meaning". The tree is deliberately
+close to the source: names are not resolved here (that is `frontend.resolve`), so the
+formatter and the language server can work on programs that do not resolve.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+from knitc.source import UNKNOWN_SPAN, Span
+
+
+@dataclass(frozen=True, slots=True)
+class Node:
+    span: Span = field(default=UNKNOWN_SPAN, compare=False, repr=False, kw_only=True)
+
+    def children(self) -> list[Node]:
+        out: list[Node] = []
+        for f in fields(self):
+            if f.name == "span":
+                continue
+            _collect(getattr(self, f.name), out)
+        return out
+
+    def walk(self):
+        """Pre-order traversal of this subtree."""
+        stack: list[Node] = [self]
+        while stack:
+            n = stack.pop()
+            yield n
+            stack.extend(reversed(n.children()))
+
+
+def _collect(value: Any, out: list[Node]) -> None:
+    if isinstance(value, Node):
+        out.append(value)
+    elif isinstance(value, tuple):
+        for v in value:
+            _collect(v, out)
+
+
+@dataclass(frozen=True, slots=True)
+class Ident(Node):
+    """A name written by the user, kept with its own span for precise diagnostics."""
+
+    name: str
+
+
+# ---- expressions ---------------------------------------------------------------------------
+
+@dataclass(frozen=True, slots=True)
+class Number(Node):
+    value: int | float
+
+
+@dataclass(frozen=True, slots=True)
+class String(Node):
+    value: str
+
+
+@dataclass(frozen=True, slots=True)
+class Bool(Node):
+    value: bool
+
+
+@dataclass(frozen=True, slots=True)
+class GridCell(Node):
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
+class Grid(Node):
+    """A drawn grid: rows of instruction mnemonics, as written (top row first)."""
+
+    rows: tuple[tuple[GridCell, ...], ...]
+
+
+@dataclass(frozen=True, slots=True)
+class ParamRef(Node):
+    """`#name`: a design parameter."""
+
+    name: str
+
+
+@dataclass(frozen=True, slots=True)
+class PropRef(Node):
+    """`@prop` (the enclosing node's property) or `@node.prop`."""
+
+    node: str | None
+    prop: str
+
+
+@dataclass(frozen=True, slots=True)
+class Name(Node):
+    """A bare name: an enum word (`half`), a local, a builtin or a definition."""
+
+    id: str
+
+
+@dataclass(frozen=True, slots=True)
+class ListExpr(Node):
+    items: tuple[Expr, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class ProfilePoint(Node):
+    t: Expr
+    value: Expr
+
+
+@dataclass(frozen=True, slots=True)
+class Profile(Node):
+    """`[t0: v0, t1: v1, ...]`: a piecewise-linear function over t in [0, 1]."""
+
+    points: tuple[ProfilePoint, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class TupleExpr(Node):
+    items: tuple[Expr, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Unary(Node):
+    op: str  # "-" or "not"
+    operand: Expr
+
+
+@dataclass(frozen=True, slots=True)
+class Binary(Node):
+    op: str  # + - * / % ^ == != < <= > >= and or
+    left: Expr
+    right: Expr
+
+
+@dataclass(frozen=True, slots=True)
+class Range(Node):
+    """`start:stop` or `start:step:stop` (inclusive, as in thesis Table 5.1)."""
+
+    start: Expr
+    stop: Expr
+    step: Expr | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class KwArg(Node):
+    name: Ident
+    value: Expr
+
+
+@dataclass(frozen=True, slots=True)
+class Call(Node):
+    func: Expr
+    args: tuple[Arg, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Attr(Node):
+    obj: Expr
+    name: Ident
+
+
+@dataclass(frozen=True, slots=True)
+class Index(Node):
+    obj: Expr
+    index: Expr
+
+
+Expr = (Number | String | Bool | Grid | ParamRef | PropRef | Name | ListExpr | Profile | TupleExpr
+        | Unary | Binary | Call | Attr | Index)
+Arg = Expr | Range | KwArg
+
+
+# ---- declarations ----------------------------------------------------------------------------
+
+@dataclass(frozen=True, slots=True)
+class Prop(Node):
+    """`name: value` inside a node, machine, interface or action block."""
+
+    name: Ident
+    value: Expr
+
+
+@dataclass(frozen=True, slots=True)
+class Import(Node):
+    """`import std.stitches (rib)` (module) or `import "lace.knit"` (file)."""
+
+    module: tuple[str, ...] | None
+    path: str | None
+    names: tuple[Ident, ...] | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class ParamDecl(Node):
+    name: Ident
+    value: Expr
+
+
+@dataclass(frozen=True, slots=True)
+class MachineDecl(Node):
+    props: tuple[Prop, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class NodeDecl(Node):
+    """A shape primitive: `sheet`, `tube`, `joint` or `split`."""
+
+    kind: str
+    name: Ident
+    props: tuple[Prop, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class ItfRef(Node):
+    """`node.bottom`, `node.top`, `node.base`, `node.branches[i]`."""
+
+    node: Ident
+    path: Ident
+    index: Expr | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class ItfStmt(Node):
+    """Interface state and casting: `a.bottom closed(zigzag) { cast_on: tuck }`."""
+
+    itf: ItfRef
+    state: str | None  # "open", "closed" or None (only the block)
+    closing: Ident | None
+    props: tuple[Prop, ...] | None
+
+
+@dataclass(frozen=True, slots=True)
+class Connect(Node):
+    a: ItfRef
+    b: ItfRef
+
+
+@dataclass(frozen=True, slots=True)
+class Start(Node):
+    itf: ItfRef
+
+
+@dataclass(frozen=True, slots=True)
+class ParamDef(Node):
+    """A formal parameter of a pattern or shaper definition, with optional default."""
+
+    name: Ident
+    default: Expr | None = None
+
+
+# ---- pattern layers ------------------------------------------------------------------------
+
+@dataclass(frozen=True, slots=True)
+class SetStmt(Node):
+    """`set P where q`: write a pattern instruction on the selected stitches."""
+
+    instr: str
+    where: Expr | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class UseStmt(Node):
+    """`use purl_flat where q`: attach a stitch action to the selected stitches."""
+
+    action: Ident
+    where: Expr | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class ApplyStmt(Node):
+    """`apply rib(2, 2) where q`: run a pattern definition on the selected stitches."""
+
+    pattern: Ident
+    args: tuple[Arg, ...]
+    where: Expr | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class GridStmt(Node):
+    """`draw` (singular, centred), `stretch` (scalable) or `tile` (tileable) a grid."""
+
+    mode: str
+    grid: Expr
+    where: Expr | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Let(Node):
+    name: Ident
+    value: Expr
+
+
+LayerStmt = SetStmt | UseStmt | ApplyStmt | GridStmt | Let
+
+
+@dataclass(frozen=True, slots=True)
+class PatternLayer(Node):
+    """`pattern cuff { ... }`; the target `before`/`after` means the global layers."""
+
+    target: Ident
+    body: tuple[LayerStmt, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class PatternDef(Node):
+    name: Ident
+    params: tuple[ParamDef, ...]
+    body: tuple[LayerStmt, ...]
+
+
+# ---- statements (shaper programs and action steps) ------------------------------------------
+
+@dataclass(frozen=True, slots=True)
+class Block(Node):
+    stmts: tuple[Stmt, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Assign(Node):
+    name: Ident
+    value: Expr
+
+
+@dataclass(frozen=True, slots=True)
+class If(Node):
+    cond: Expr
+    then: Block
+    orelse: Block | If | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class For(Node):
+    var: Ident
+    iter: Expr
+    body: Block
+
+
+@dataclass(frozen=True, slots=True)
+class MapStmt(Node):
+    """`i -> j` (map), `i -> (j1, j2)` (increase), `(i1, i2) -> j` (decrease)."""
+
+    src: Expr
+    dst: Expr
+
+
+@dataclass(frozen=True, slots=True)
+class ExprStmt(Node):
+    expr: Expr
+
+
+Stmt = Let | Assign | If | For | MapStmt | ExprStmt
+
+
+@dataclass(frozen=True, slots=True)
+class ActionStep(Node):
+    step: str  # pre, main, post
+    body: Block
+
+
+@dataclass(frozen=True, slots=True)
+class ActionDef(Node):
+    """A user stitch action (thesis ch. 6.9.1): properties and pre/main/post steps."""
+
+    name: Ident
+    items: tuple[Prop | ActionStep, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class ShaperDef(Node):
+    """A user shaper program mapping a course of M stitches onto one of N (ch. 5.4.1)."""
+
+    name: Ident
+    params: tuple[ParamDef, ...]
+    body: Block
+
+
+Item = (Import | ParamDecl | MachineDecl | NodeDecl | ItfStmt | Connect | Start | PatternLayer
+        | PatternDef | ActionDef | ShaperDef)
+
+
+@dataclass(frozen=True, slots=True)
+class Comment(Node):
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
+class Module(Node):
+    """One source file: its items in order, and its comments (kept for the formatter)."""
+
+    items: tuple[Item, ...]
+    comments: tuple[Comment, ...] = field(default=(), compare=False, repr=False)
+
+
+# ---- stable JSON (`knitc --emit ast`) ----------------------------------------------------------
+
+def to_json(value: Any) -> Any:
+    """A deterministic, JSON-ready view of an AST (or any part of it)."""
+    if isinstance(value, Node):
+        out: dict[str, Any] = {"node": type(value).__name__}
+        for f in fields(value):
+            if f.name in ("span", "comments"):
+                continue
+            out[f.name] = to_json(getattr(value, f.name))
+        out["span"] = value.span.to_json()
+        return out
+    if isinstance(value, tuple):
+        return [to_json(v) for v in value]
+    return value

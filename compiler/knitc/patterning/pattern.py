@@ -1,0 +1,167 @@
+"""The pattern pass: pattern layers → an instruction on every stitch (thesis ch. 5.3, 6.9).
+
+Layers run in the order of ch. 5.3: the global `pattern before` layers, then each node's
+layers in source order, then `pattern after`; later writes win. Statements:
+
+- `set P where Q` writes instruction P on the stitches Q selects (`patterning.query`);
+- `let NAME = Q` names a selection for the layer's later statements;
+- `apply DEF(args) where Q` runs a pattern definition on the selection: its statements
+  select within the caller's selection, with the definition's formals bound to the
+  arguments (bare names in its queries and filters), and its courses and wales count from
+  the selection's corner (`query.relative`), so a rib or a cable applied to a panel
+  starts its repeat at the panel's edge;
+- `use ACTION where Q` attaches a stitch action (`patterning.actions`);
+- `draw` / `stretch` / `tile GRID where Q` write a drawn grid of instructions
+  (`patterning.drawing`).
+
+Every write also records the statement in the graph's `origin`, so later warnings about a
+stitch's pattern point at the line that wrote it. The pass never creates or deletes
+stitches: it returns the same graph with new `instr`, `action` and `origin` arrays.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from knitc.diagnostics import Diagnostics
+from knitc.frontend import ast
+from knitc.frontend import skeleton as sk
+from knitc.lang.evaluate import EvalError, Evaluator, Word
+from knitc.patterning import actions, drawing
+from knitc.patterning.query import Coords, QueryEnv, coords, evaluate_query, relative
+from knitc.shaping.stitch_graph import INSTRUCTIONS, StitchGraph
+from knitc.source import Span
+
+MAX_DEPTH = 32
+"""Nested `apply`s deeper than this are a pattern applying itself (E707)."""
+
+
+def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> StitchGraph:
+    assert g.origin is not None  # filled in by StitchGraph.__post_init__
+    run = _Run(skel, g, diags, g.instr.copy(), g.action.copy(), g.origin.copy(), list(g.spans))
+    before = [la for la in skel.layers if la.target == "before"]
+    after = [la for la in skel.layers if la.target == "after"]
+    nodes = [la for la in skel.layers if la.target not in ("before", "after")]
+    for layer in before + nodes + after:
+        node = None
+        if layer.target not in ("before", "after"):
+            if layer.target not in g.node_names:
+                continue
+            node = g.node_names.index(layer.target)
+        # the statements of one `pattern X { ... }` block share its `let`s
+        env = run.envs.setdefault(layer.origin, QueryEnv(params=dict(skel.params), lets={}))
+        run.stmts((layer.stmt,), node, env, None, 0)
+    return dataclasses.replace(g, instr=run.instr, action=run.action, origin=run.origin,
+                               spans=run.spans)
+
+
+@dataclasses.dataclass
+class _Run:
+    skel: sk.Skeleton
+    g: StitchGraph
+    diags: Diagnostics
+    instr: np.ndarray
+    action: np.ndarray
+    origin: np.ndarray
+    spans: list
+    envs: dict = dataclasses.field(default_factory=dict)
+    warned: set = dataclasses.field(default_factory=set)
+    coords: Coords | None = None
+    span_ids: dict = dataclasses.field(default_factory=dict)
+    chain: list = dataclasses.field(default_factory=list)
+    """The `apply` statements being expanded, outermost first."""
+
+    def __post_init__(self) -> None:
+        self.coords = coords(self.g)  # once for every query of every layer
+
+    def mark(self, mask: np.ndarray, span: Span) -> None:
+        """Record `span` (a pattern statement) as the origin of the stitches in `mask`;
+        inside applied definitions, chained to the `apply` statements it expanded from
+        (`Span.parent`), the designer's own `apply` outermost."""
+        chain = (*self.chain, span)
+        k = self.span_ids.get(chain)
+        if k is None:
+            k = self.span_ids[chain] = len(self.spans)
+            self.spans.append(Span.expanded(chain))
+        self.origin[mask] = k
+
+    def stmts(self, body, node: int | None, env: QueryEnv, within: np.ndarray | None,
+              depth: int) -> None:
+        for stmt in body:
+            if isinstance(stmt, ast.Let):
+                env.lets[stmt.name.name] = stmt.value  # type: ignore[index]
+            elif isinstance(stmt, ast.SetStmt):
+                mask = self.select(node, stmt.where, env, within)
+                self.instr[mask] = INSTRUCTIONS.index(stmt.instr)
+                self.mark(mask, stmt.span)
+            elif isinstance(stmt, ast.ApplyStmt):
+                self.apply(stmt, node, env, within, depth)
+            elif isinstance(stmt, ast.UseStmt):
+                actions.attach(self, stmt, node, env, within)
+            elif isinstance(stmt, ast.GridStmt):
+                drawing.apply_grid(self, stmt, node, env, within)
+
+    def select(self, node: int | None, where, env: QueryEnv,
+               within: np.ndarray | None) -> np.ndarray:
+        mask = evaluate_query(self.g, node, where, env, self.diags, c=self.coords, within=within)
+        return mask if within is None else mask & within
+
+    def apply(self, stmt: ast.ApplyStmt, node: int | None, env: QueryEnv,
+              within: np.ndarray | None, depth: int) -> None:
+        pdef = self.skel.patterns.get(stmt.pattern.name)
+        if pdef is None:
+            return  # the resolver reported it
+        if depth >= MAX_DEPTH:
+            self.diags.error("E707", f"`{pdef.name.name}` applies patterns more than "
+                             f"{MAX_DEPTH} deep", stmt.span,
+                             hint="a pattern that applies itself never ends")
+            return
+        values = self.arguments(pdef, stmt, env)
+        if values is None:
+            return
+        sel = self.select(node, stmt.where, env, within)
+        inner = QueryEnv(params=env.params, lets={}, values=values)
+        self.chain.append(stmt.span)
+        outer = self.coords
+        assert outer is not None  # set by __post_init__
+        self.coords = relative(self.g, outer, sel)  # the definition counts from its corner
+        self.stmts(pdef.body, node, inner, sel, depth + 1)
+        self.coords = outer
+        self.chain.pop()
+
+    def arguments(self, pdef: ast.PatternDef, stmt: ast.ApplyStmt,
+                  env: QueryEnv) -> dict[str, object] | None:
+        """The formals bound to the call's arguments (positional, then by name, then the
+        defaults), evaluated as constants; None after an error."""
+        def param(name, span):
+            if name in env.params:
+                return env.params[name]
+            raise EvalError("E704", f"unknown parameter `#{name}`", span)
+
+        def prop(node, name, span):
+            raise EvalError("E703", "node properties cannot be pattern arguments", span)
+
+        ev = Evaluator(param, prop)
+        given: dict[str, ast.Node] = {}
+        formals = [f.name.name for f in pdef.params]
+        for i, a in enumerate(stmt.args):
+            if isinstance(a, ast.KwArg):
+                given[a.name.name] = a.value
+            elif i < len(formals):
+                given[formals[i]] = a
+        values: dict[str, object] = {}
+        try:
+            for f in pdef.params:
+                e = given.get(f.name.name, f.default)
+                if e is None:
+                    self.diags.error("E703", f"`{pdef.name.name}` needs argument "
+                                     f"`{f.name.name}`", stmt.span)
+                    return None
+                v = ev.eval(e)
+                values[f.name.name] = v.name if isinstance(v, Word) else v
+        except EvalError as err:
+            self.diags.error(err.code, err.message, err.span)
+            return None
+        return values

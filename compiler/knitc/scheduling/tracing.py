@@ -1,0 +1,207 @@
+"""Yarn tracing: stitch graph → traced yarn (thesis ch. 6.6).
+
+Two tracers produce the same IR:
+
+- `trace_courses`, the default: the shape pass already lays every course out in yarn
+  order and appends courses in knitting order, so the yarn path is the stitch ids in
+  order; what remains is deciding which yarn knits each course (a course continues a yarn
+  whose last stitch is next to its first, else a new yarn starts), the carriage direction,
+  and tucks where short rows turn. Linear and vectorised per course.
+- `trace_rules`, the rule-based procedure of Narayanan et al. used by the thesis (R1 start
+  yarn, R2 next row, R3 continue, R4 tuck and turn, R5 end short row, R6 end yarn), with
+  single or double tracing (`passes=2`: every stitch visited twice, which lets one carrier
+  knit any short-row structure). R7/R8 (local yarns for intarsia) are hooks: `yarn_of`
+  may assign a stitch to another yarn, which then starts and ends where its stitches do.
+  It works on any stitch graph, including ones not made by the shape pass.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from knitc.scheduling import trace as tr
+from knitc.shaping.stitch_graph import COURSE_KINDS, StitchGraph
+
+_TURNING = (COURSE_KINDS.index("short_row"), COURSE_KINDS.index("continuity"))
+
+
+
+
+def trace_courses(g: StitchGraph) -> tr.Trace:
+    """Single-pass tracing in knitting order (see the module docstring)."""
+    n = g.n_stitches
+    yarn = np.zeros(n, np.int16)
+    flags = np.zeros(n, np.uint8)
+    last_of: list[int] = []  # yarn -> its last stitch
+    joins: list[tuple[int, int]] = []  # (first stitch of a course, previous stitch of its yarn)
+    for c in range(g.n_courses):
+        ids = g.course_ids(c)
+        if ids.size == 0:
+            continue
+        first = int(ids[0])
+        chosen = -1
+        jump = False
+        for y in range(len(last_of) - 1, -1, -1):  # most recent yarn first
+            if tr.neighbours(g, last_of[y], first):
+                chosen = y
+                break
+        if chosen < 0:
+            for y in range(len(last_of) - 1, -1, -1):
+                if tr.near(g, last_of[y], first):
+                    chosen, jump = y, True
+                    break
+        if chosen < 0:
+            chosen = len(last_of)
+            last_of.append(-1)
+        else:
+            if jump:
+                flags[first] |= tr.JUMP
+            if g.course_kind[c] in _TURNING and not g.course_circular[c]:
+                joins.append((first, last_of[chosen]))
+        yarn[ids] = chosen
+        last_of[chosen] = int(ids[-1])
+    stitch = np.arange(n, dtype=np.int32)
+    dirs = tr.carriage_dirs(g, stitch, yarn)
+    for first, prev in joins:  # short rows turn on the same bed: tuck (ch. 5.4)
+        if g.side[first] == g.side[prev] and dirs[first] != dirs[prev]:
+            flags[first] |= tr.TUCK_PREV
+    tr.start_end_flags(yarn, flags)
+    return tr.Trace(stitch, yarn, dirs, flags, passes=1, method="courses")
+
+
+def trace_rules(g: StitchGraph, passes: int = 2,
+                yarn_of: Callable[[int], int] | None = None) -> tr.Trace:
+    """Rule-based tracing (R1–R6) with `passes` visits per stitch (see module docstring)."""
+    if passes not in (1, 2):
+        raise ValueError("passes must be 1 or 2")
+    n = g.n_stitches
+    visits = np.zeros(n, np.int8)
+    # pending[c]: wale edges into course c whose parent is not finished yet
+    pending = np.zeros(g.n_courses, np.int64)
+    for k in (0, 1):
+        p = g.wale_prev[:, k]
+        np.add.at(pending, g.course[p >= 0], 1)
+    done_in_course = np.zeros(g.n_courses, np.int64)
+    out_stitch: list[int] = []
+    out_yarn: list[int] = []
+    out_flags: list[int] = []
+    next_course = 0  # lowest course that may still hold unfinished stitches
+
+    def ready(s: int) -> bool:
+        return pending[g.course[s]] == 0 and visits[s] < passes
+
+    def knit(s: int, yarn: int, flag: int = 0) -> None:
+        visits[s] += 1
+        out_stitch.append(s)
+        out_yarn.append(yarn)
+        out_flags.append(flag)
+        if visits[s] == passes:
+            done_in_course[g.course[s]] += 1
+            for child in g.wale_next[s]:
+                if child >= 0:
+                    pending[g.course[child]] -= 1
+
+    def along(s: int, o: int) -> int:
+        return int(g.cnext[s] if o > 0 else g.cprev[s])
+
+    def orient(t: int) -> int:
+        """Orientation (+1 along course order) for entering stitch t."""
+        nx, pv = int(g.cnext[t]), int(g.cprev[t])
+        if nx >= 0 and visits[nx] < passes:
+            return 1
+        if pv >= 0 and visits[pv] < passes:
+            return -1
+        return 1
+
+    yarn = -1
+    cur, o = -1, 1
+    remaining = n * passes
+    while remaining > 0:
+        if cur < 0:  # R1: start a yarn at the first unfinished stitch of a ready course
+            while next_course < g.n_courses and \
+                    done_in_course[next_course] == g.course_len[next_course]:
+                next_course += 1
+            start = -1
+            for c in range(next_course, g.n_courses):
+                if pending[c] or done_in_course[c] == g.course_len[c]:
+                    continue
+                ids = g.course_ids(c)
+                open_ids = ids[visits[ids] < passes]
+                ends = [int(s) for s in open_ids if g.cprev[s] < 0 or g.cnext[s] < 0]
+                start = ends[0] if ends else int(open_ids[0])
+                break
+            if start < 0:
+                raise AssertionError("tracing is stuck: no ready stitch")
+            yarn += 1
+            if out_stitch and out_yarn[-1] == yarn - 1:
+                out_flags[-1] |= tr.END
+            o = orient(start)
+            knit(start, yarn, tr.START)
+            remaining -= 1
+            cur = start
+            continue
+        nxt, flag = -1, 0
+        # R2: next row, once the current stitch is finished and a course above is ready
+        if visits[cur] == passes:
+            ahead = along(cur, o)
+            if ahead >= 0 and visits[ahead] == passes:
+                for child in g.wale_next[ahead]:
+                    if child >= 0 and ready(int(child)):
+                        nxt = int(child)
+                        break
+            if nxt < 0:
+                for child in g.wale_next[cur]:
+                    if child >= 0 and ready(int(child)):
+                        nxt = int(child)
+                        flag = 0 if g.course_circular[g.course[nxt]] else tr.TUCK_PREV
+                        break
+            if nxt >= 0:
+                o = orient(nxt)
+        # R3: continue along the course
+        if nxt < 0:
+            ahead = along(cur, o)
+            if ahead >= 0 and ready(ahead):
+                nxt = ahead
+        # R4: tuck and turn at the end of a row that still needs tracing
+        if nxt < 0 and visits[cur] < passes and along(cur, o) < 0:
+            o = -o
+            nxt, flag = cur, tr.TUCK_PREV
+        # R5: end of a short row: continue beyond it in an earlier row
+        if nxt < 0:
+            s = cur
+            for _ in range(4):
+                parent = int(g.wale_prev[s, 0])
+                if parent < 0:
+                    break
+                for cand in (along(parent, o), along(parent, -o)):
+                    if cand >= 0 and ready(cand):
+                        nxt = cand
+                        break
+                if nxt >= 0:
+                    o = orient(nxt)
+                    break
+                s = parent
+        # R6: end the yarn
+        if nxt < 0:
+            out_flags[-1] |= tr.END
+            cur = -1
+            continue
+        if not tr.neighbours(g, cur, nxt):
+            if not tr.near(g, cur, nxt):  # too far to carry the yarn: end it (R6)
+                cur = -1
+                continue
+            flag |= tr.JUMP
+        y = yarn if yarn_of is None else yarn_of(nxt)
+        knit(nxt, y, flag)
+        remaining -= 1
+        cur = nxt
+    if out_flags:
+        out_flags[-1] |= tr.END
+    stitch = np.asarray(out_stitch, np.int32)
+    yarns = np.asarray(out_yarn, np.int16)
+    flags = np.asarray(out_flags, np.uint8)
+    tr.start_end_flags(yarns, flags)
+    return tr.Trace(stitch, yarns, tr.carriage_dirs(g, stitch, yarns), flags,
+                    passes=passes, method="rules")
