@@ -12,9 +12,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fabric import assert_knits_as_designed
+from knitc.codegen import actions
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source
-from knitc.patterning import actions
+from knitc.patterning import actions as pattern_actions
 from knitc.patterning.pattern import apply_patterns
 from knitc.patterning.query import QueryEnv, coords, evaluate_query
 from knitc.shaping.shape import build_stitch_graph
@@ -126,7 +127,7 @@ def test_actions_on_the_first_course_knit_through_the_cast_on(machine):
 
 
 def test_builtins_need_no_import_and_a_design_may_redefine_them():
-    assert {"purl", "split", "kickback"} <= set(actions.names(build(
+    assert {"purl", "split", "kickback"} <= set(pattern_actions.names(build(
         "sheet s { length: 2  width: 2 }\n", "skeleton").skeleton))
     own = ("action purl { main { tuck(dir, needle, carriers) } }\n"
            "sheet s { length: 4  width: 4 }\npattern s { use purl where select(1, 1) }\n")
@@ -142,7 +143,7 @@ def test_ids_index_the_actions_sorted_by_name():
            "pattern s {\n  use zz where wales(0)\n  use aa where wales(1)\n"
            "  use purl where wales(2)\n}\n")
     r = build(src)
-    names = actions.names(r.skeleton)
+    names = pattern_actions.names(r.skeleton)
     assert names == sorted(names) and names[0] == "aa"
     w = coords(r.graph).wale
     for wale, name in ((0, "zz"), (1, "aa"), (2, "purl")):
@@ -375,7 +376,7 @@ def test_use_never_creates_or_deletes_stitches(shape, uses):
                  "wale_next", "course_start", "course_len"):
         assert np.array_equal(getattr(out, name), getattr(raw, name)), name
     # the last `use` of each stitch wins; the built-in knit resets to plain
-    names = actions.names(r.skeleton)
+    names = pattern_actions.names(r.skeleton)
     want = np.full(raw.n_stitches, -1)
     instr = raw.instr.copy()
     assert len(r.skeleton.layers) == len(uses)  # one layer entry per statement, in order
@@ -426,7 +427,7 @@ def test_a_purl_on_a_full_gauge_tube_is_an_error_at_the_stdlib_line_and_the_use(
     src = "tube t { length: 4  width: 6 }\npattern t { use purl where courses(1) }\n"
     r = compiled_with_errors(src)
     [e] = [d for d in r.diagnostics if d.is_error]
-    assert e.code == "E720" and e.span.file == actions.STD_FILE
+    assert e.code == "E720" and e.span.file == pattern_actions.STD_FILE
     assert "half" in (e.hint or "")
     assert [n.span.line for n in e.notes] == [2]
     assert "xfer(needle, opposite)" in r.diagnostics.render()  # the stdlib source is shown

@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from knitc.codegen import actions
 from knitc.codegen import casting as cast
 from knitc.codegen.bed import BEDS, Bed, Pos, Unsupported
 from knitc.codegen.machine import Machine, MachineProgram
@@ -43,7 +44,7 @@ from knitc.codegen.steps import Action, continues_in_place, empty_needle_number,
 from knitc.codegen.transfers import move
 from knitc.diagnostics import Diagnostics
 from knitc.frontend import skeleton as sk
-from knitc.patterning import actions
+from knitc.patterning import actions as pattern_actions
 from knitc.patterning.instructions import CROSSES, MOVES, cables, neighbour, origin_site, right_left
 from knitc.scheduling import schedule as sc
 from knitc.scheduling import trace as tr
@@ -76,8 +77,8 @@ class CodegenOptions:
     node_increase: Mapping[str, str] = field(default_factory=dict)
     numbers: cast.StitchNumbers = cast.STITCH_NUMBERS
     actions: tuple = ()
-    """The design's actions and the built-ins, ready to run (`actions.Program`), indexed by
-    `StitchGraph.action` (`action_table`)."""
+    """The design's actions and the built-ins, ready to run (`patterning.actions.Program`),
+    indexed by `StitchGraph.action` (`action_table`)."""
 
     def cast_on_for(self, names: tuple[str, ...]) -> str:
         return next((self.interface_cast_on[n] for n in names if n in self.interface_cast_on),
@@ -106,9 +107,9 @@ def options_from_skeleton(skel: sk.Skeleton) -> CodegenOptions:
 
 
 def action_table(skel: sk.Skeleton) -> tuple:
-    """The actions (`actions.Program`) in the order `StitchGraph.action` numbers them: the
-    design's and the built-in names, by name (`actions.table`)."""
-    return actions.table(skel)
+    """The actions (`patterning.actions.Program`) in the order `StitchGraph.action` numbers
+    them: the design's and the built-in names, by name (`patterning.actions.table`)."""
+    return pattern_actions.table(skel)
 
 
 # ---- state ------------------------------------------------------------------------------------
