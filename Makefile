@@ -4,7 +4,7 @@
 #   make run        create .venv, install knitc into it, compile examples/sweater.knit to Knitout
 #   make test       install knitc + test tools into .venv, run the test suite (deterministic)
 #   make explore    the test suite with fresh random hypothesis examples (fuzzing runs)
-#   make lint       ruff check
+#   make lint       ruff check, ruff format --check, mypy (what CI runs after the tests)
 #   make fmt-check  ruff format --check (make fmt applies it)
 #   make clean      remove build artifacts and caches (make distclean also removes .venv)
 #   make oracle-venv  create .venv-oracle, the independent Knitout oracle's own venv
@@ -39,7 +39,7 @@ help:
 	@echo "make run        install knitc into .venv and compile $(EXAMPLE) to Knitout"
 	@echo "make test       install knitc and its test extra into .venv, run pytest"
 	@echo "make explore    the test suite with fresh random hypothesis examples each run"
-	@echo "make lint       ruff check $(SRC)"
+	@echo "make lint       ruff check, ruff format --check and mypy on $(SRC)"
 	@echo "make fmt-check  ruff format --check $(SRC)   (make fmt: reformat)"
 	@echo "make venv       create .venv if missing;  make install: (re)install knitc into it"
 	@echo "make clean      remove build artifacts and caches;  make distclean: also .venv"
@@ -84,17 +84,21 @@ explore: venv oracle-venv
 bench: install oracle-venv
 	$(BIN)/python bench/run.py
 
-# ruff comes with the test extra; install just ruff when only lint is asked for.
-$(BIN)/ruff: | $(BIN)/python
-	$(PIP) install -q ruff
+# The linters are the test extra's pinned versions (pyproject.toml), so a developer's
+# `make lint` and CI's agree; the stamp re-installs them when the pins change.
+$(VENV)/.tools: pyproject.toml | $(BIN)/python
+	$(PIP) install -q $$($(BIN)/python -c 'import tomllib; print(" ".join(tomllib.load(open("pyproject.toml", "rb"))["project"]["optional-dependencies"]["test"]))')
+	@touch $@
 
-lint: $(BIN)/ruff
+lint: $(VENV)/.tools
 	$(BIN)/ruff check $(SRC)
+	$(BIN)/ruff format --check $(SRC)
+	$(BIN)/mypy
 
-fmt-check: $(BIN)/ruff
+fmt-check: $(VENV)/.tools
 	$(BIN)/ruff format --check $(SRC)
 
-fmt: $(BIN)/ruff
+fmt: $(VENV)/.tools
 	$(BIN)/ruff format $(SRC)
 	$(BIN)/ruff check --fix $(SRC)
 

@@ -68,6 +68,7 @@ BACK_TO_FRONT = 1
 
 # ---- the fabric, as the oracle reports it -----------------------------------------------------
 
+
 @dataclass(frozen=True)
 class Fabric:
     """The oracle's knit graph (`oracle_runner.py --fabric`), by loop id."""
@@ -86,10 +87,14 @@ class Fabric:
         rows = sorted(d["loops"], key=lambda r: r[0])
         if [r[0] for r in rows] != list(range(len(rows))):
             raise ValueError("the oracle's loop ids are not 0..n-1")
-        fab = cls(line=[r[1] for r in rows], needle=[r[2] for r in rows],
-                  yarn=[r[3] for r in rows], parents=[tuple(r[4]) for r in rows],
-                  pulls=[tuple(r[5]) for r in rows],
-                  yarns=[(c, tuple(ids)) for c, ids in d["yarns"]])
+        fab = cls(
+            line=[r[1] for r in rows],
+            needle=[r[2] for r in rows],
+            yarn=[r[3] for r in rows],
+            parents=[tuple(r[4]) for r in rows],
+            pulls=[tuple(r[5]) for r in rows],
+            yarns=[(c, tuple(ids)) for c, ids in d["yarns"]],
+        )
         fab.children.extend([] for _ in rows)
         for child, ps in enumerate(fab.parents):
             for p in ps:
@@ -103,6 +108,7 @@ class Fabric:
 
 
 # ---- what the design says ---------------------------------------------------------------------
+
 
 @dataclass(frozen=True)
 class Mismatch:
@@ -145,8 +151,10 @@ def describe(g: StitchGraph, s: int) -> str:
     c = int(g.course[s])
     pos = s - int(g.course_start[c])
     side = "back" if int(g.side[s]) else "front"
-    return (f"stitch {s} (node `{g.node_names[int(g.node[s])]}`, course {c}, position {pos}, "
-            f"{side}, {INSTRUCTIONS[int(g.instr[s])]})")
+    return (
+        f"stitch {s} (node `{g.node_names[int(g.node[s])]}`, course {c}, position {pos}, "
+        f"{side}, {INSTRUCTIONS[int(g.instr[s])]})"
+    )
 
 
 def expect(result: Result, fab: Fabric) -> Expected:
@@ -194,8 +202,13 @@ def expect(result: Result, fab: Fabric) -> Expected:
                     out.realized += [(p, s) for p in parents]
                 elif below:
                     stands[s] = below
-                    bad.append(Mismatch("loop", s, f"{describe(g, s)} was never knitted: no "
-                                        "loop of the fabric is its own"))
+                    bad.append(
+                        Mismatch(
+                            "loop",
+                            s,
+                            f"{describe(g, s)} was never knitted: no loop of the fabric is its own",
+                        )
+                    )
                 else:
                     bad.append(Mismatch("loop", s, f"{describe(g, s)} has no loop at all"))
                 continue
@@ -210,8 +223,14 @@ def expect(result: Result, fab: Fabric) -> Expected:
             stands[s] = frozenset({lp})
             if not parents:
                 if got - cast_on:
-                    bad.append(Mismatch("parents", s, f"{describe(g, s)} starts the fabric but "
-                                        f"was pulled through loops {_names(g, fab, got)}"))
+                    bad.append(
+                        Mismatch(
+                            "parents",
+                            s,
+                            f"{describe(g, s)} starts the fabric but "
+                            f"was pulled through loops {_names(g, fab, got)}",
+                        )
+                    )
                 elif user and s in splits:  # a split action keeps the cast-on loop it splits
                     stands[s] = stands[s] | got
                 continue
@@ -232,9 +251,15 @@ def expect(result: Result, fab: Fabric) -> Expected:
                 continue
             hit = [p for p in parents if stands[p] & got]
             out.realized += [(p, s) for p in hit]
-            bad.append(Mismatch("parents", s, f"{describe(g, s)} was pulled through "
-                                f"{_names(g, fab, got)} but its designed wale predecessors "
-                                f"{parents} stand as {_names(g, fab, below)}"))
+            bad.append(
+                Mismatch(
+                    "parents",
+                    s,
+                    f"{describe(g, s)} was pulled through "
+                    f"{_names(g, fab, got)} but its designed wale predecessors "
+                    f"{parents} stand as {_names(g, fab, below)}",
+                )
+            )
         if np.isin(g.instr[ids], list(CARRIED)).any():
             if sides is None:
                 sides = right_left(g)
@@ -260,19 +285,29 @@ def _split_sibling(g: StitchGraph, s: int, loop: dict[int, int], fab: Fabric) ->
     return len(kids) == 1 and kids[0] in loop and bool(fab.parents[loop[kids[0]]])
 
 
-def _kickback(g: StitchGraph, s: int, parents: list[int], loop: dict[int, int],
-              stands: list[frozenset[int]], fab: Fabric) -> bool:
+def _kickback(
+    g: StitchGraph,
+    s: int,
+    parents: list[int],
+    loop: dict[int, int],
+    stands: list[frozenset[int]],
+    fab: Fabric,
+) -> bool:
     """Whether parentless `s` is the kickback child of an increase whose other child took
     the parent's loops."""
     if len(parents) != 1 or not stands[parents[0]]:
         return False
     kids = [int(k) for k in g.wale_next[parents[0]] if k >= 0 and int(k) != s]
-    return len(kids) == 1 and kids[0] in loop and \
-        stands[parents[0]] <= frozenset(fab.parents[loop[kids[0]]])
+    return (
+        len(kids) == 1
+        and kids[0] in loop
+        and stands[parents[0]] <= frozenset(fab.parents[loop[kids[0]]])
+    )
 
 
-def _check_pull(g: StitchGraph, fab: Fabric, s: int, lp: int, front: bool,
-                plain_ok: set, bad: list[Mismatch]) -> None:
+def _check_pull(
+    g: StitchGraph, fab: Fabric, s: int, lp: int, front: bool, plain_ok: set, bad: list[Mismatch]
+) -> None:
     """Knit or purl as designed. The face of the fabric is the side away from the other bed,
     so a knit on the bed its layout puts it on (`front`) pulls back to front on the front
     bed and front to back on the back bed; a reversed stitch the other way, unless knitc
@@ -280,20 +315,35 @@ def _check_pull(g: StitchGraph, fab: Fabric, s: int, lp: int, front: bool,
     if int(g.action[s]) >= 0:  # a user action decides for itself how it pulls
         return
     purl = int(g.instr[s]) in REVERSED
-    if purl and g.origin is not None and int(g.origin[s]) >= 0 \
-            and g.spans[int(g.origin[s])].chain()[0] in plain_ok:  # the designer's line
+    if (
+        purl
+        and g.origin is not None
+        and int(g.origin[s]) >= 0
+        and g.spans[int(g.origin[s])].chain()[0] in plain_ok
+    ):  # the designer's line
         purl = None  # either way
     if purl is None:
         return
     want = BACK_TO_FRONT if front != purl else 1 - BACK_TO_FRONT
     if any(p != want for p in fab.pulls[lp]):
         what = "a purl" if purl else "a knit"
-        bad.append(Mismatch("pull", s, f"{describe(g, s)} should be {what} on its face, but "
-                            f"its loop {lp}@{fab.needle[lp]} is pulled the other way"))
+        bad.append(
+            Mismatch(
+                "pull",
+                s,
+                f"{describe(g, s)} should be {what} on its face, but "
+                f"its loop {lp}@{fab.needle[lp]} is pulled the other way",
+            )
+        )
 
 
-def _carry(g: StitchGraph, ids: np.ndarray, stands: list[frozenset[int]], right: np.ndarray,
-           left: np.ndarray) -> None:
+def _carry(
+    g: StitchGraph,
+    ids: np.ndarray,
+    stands: list[frozenset[int]],
+    right: np.ndarray,
+    left: np.ndarray,
+) -> None:
     """After a course with moves or crosses, each stitch's needle holds the loops sent to it."""
     dest = {int(s): int(s) for s in ids}
     for cab in cables(g, ids, right, left):
@@ -315,12 +365,18 @@ def _check_holes(g: StitchGraph, out: Expected) -> None:
     for s in sorted(out.kickbacks):
         for nb in (int(g.cnext[s]),):
             if nb >= 0 and nb in out.kickbacks:
-                out.mismatches.append(Mismatch(
-                    "hole", s, f"{describe(g, s)} and its course neighbour {nb} are both "
-                    "kickback increases: nothing below holds the course there (a hole)"))
+                out.mismatches.append(
+                    Mismatch(
+                        "hole",
+                        s,
+                        f"{describe(g, s)} and its course neighbour {nb} are both "
+                        "kickback increases: nothing below holds the course there (a hole)",
+                    )
+                )
 
 
 # ---- whole-fabric checks ----------------------------------------------------------------------
+
 
 def check_fabric(result: Result, fab: Fabric, *, dropped_ok: Iterable[int] = ()) -> list[Mismatch]:
     """Every mismatch between the design of `result` and the knitted `fab`. Loops the design
@@ -353,8 +409,7 @@ def _not_cast_off(result: Result) -> set[int]:
     return out
 
 
-def _unattached(g: StitchGraph, fab: Fabric, ex: Expected, dropped_ok: set[int]
-                ) -> list[Mismatch]:
+def _unattached(g: StitchGraph, fab: Fabric, ex: Expected, dropped_ok: set[int]) -> list[Mismatch]:
     """Loops that stand for a stitch but that nothing was pulled through: every ending
     stitch is bound off (its loop knitted into the bind-off chain), every other loop is
     knitted through by the course above."""
@@ -364,8 +419,14 @@ def _unattached(g: StitchGraph, fab: Fabric, ex: Expected, dropped_ok: set[int]
             continue
         loose = sorted(x for x in ex.stands[s] if not fab.children[x])
         if loose:
-            out.append(Mismatch("unattached", s, f"{describe(g, s)}: {_names(g, fab, loose)} "
-                                "have nothing pulled through them and are not bound off"))
+            out.append(
+                Mismatch(
+                    "unattached",
+                    s,
+                    f"{describe(g, s)}: {_names(g, fab, loose)} "
+                    "have nothing pulled through them and are not bound off",
+                )
+            )
     return out
 
 
@@ -391,9 +452,15 @@ def _rings(g: StitchGraph, fab: Fabric, ex: Expected) -> list[Mismatch]:
         elif len(set(beds)) == 2 and turns != 2:
             problem = f"crosses between the beds {turns} times instead of twice"
         if problem:
-            out.append(Mismatch("ring", first, f"the tubular course {c} of node "
-                                f"`{g.node_names[int(g.course_node[c])]}` ({len(ids)} stitches) "
-                                f"{problem}"))
+            out.append(
+                Mismatch(
+                    "ring",
+                    first,
+                    f"the tubular course {c} of node "
+                    f"`{g.node_names[int(g.course_node[c])]}` ({len(ids)} stitches) "
+                    f"{problem}",
+                )
+            )
     return out
 
 
@@ -412,42 +479,66 @@ def _connections(result: Result, ex: Expected) -> list[Mismatch]:
         na, nb = (g.node_names.index(i.node) for i in (conn.a, conn.b))
         if na == nb or not sizes[na] or not sizes[nb]:
             continue  # a node whose only course is the other's: joined by sharing it
-        between = ((g.node[src] == na) & (g.node[dst] == nb)) | \
-            ((g.node[src] == nb) & (g.node[dst] == na))
+        between = ((g.node[src] == na) & (g.node[dst] == nb)) | (
+            (g.node[src] == nb) & (g.node[dst] == na)
+        )
         wales = list(zip(src[between].tolist(), dst[between].tolist()))
         what = f"the connection {conn.a} -> {conn.b}"
         if not wales:
-            out.append(Mismatch("connection", -1, f"{what} has no wale in the design: its "
-                                "two nodes are knitted apart"))
+            out.append(
+                Mismatch(
+                    "connection",
+                    -1,
+                    f"{what} has no wale in the design: its two nodes are knitted apart",
+                )
+            )
             continue
-        tubes = [g.node_names.index(i.node) for i in (conn.a, conn.b)
-                 if skel.interfaces[i].sides == 2]
-        per_node = [{int(g.side[x]) for w in wales for x in w if int(g.node[x]) == t}
-                    for t in tubes]
+        tubes = [
+            g.node_names.index(i.node) for i in (conn.a, conn.b) if skel.interfaces[i].sides == 2
+        ]
+        per_node = [
+            {int(g.side[x]) for w in wales for x in w if int(g.node[x]) == t} for t in tubes
+        ]
         sides = set().union(*per_node) if per_node else set()
         if tubes and not any(len(ss) == 2 for ss in per_node):
-            out.append(Mismatch("connection", wales[0][1], f"{what} joins a tube on one side "
-                                f"only (its wales are all on the {'back' if sides == {1} else 'front'})"
-                                ": a one-sided seam"))
+            out.append(
+                Mismatch(
+                    "connection",
+                    wales[0][1],
+                    f"{what} joins a tube on one side "
+                    f"only (its wales are all on the {'back' if sides == {1} else 'front'})"
+                    ": a one-sided seam",
+                )
+            )
         # a kickback increase's new loop is made by the increase, not pulled through
         missing = [(p, s) for p, s in wales if (p, s) not in realized and s not in ex.kickbacks]
         if missing:
             p, s = missing[0]
-            out.append(Mismatch("connection", s, f"{what}: {len(missing)} of its "
-                                f"{len(wales)} wales have no stitch edge in the fabric, first "
-                                f"{describe(g, p)} -> {describe(g, s)}"))
+            out.append(
+                Mismatch(
+                    "connection",
+                    s,
+                    f"{what}: {len(missing)} of its "
+                    f"{len(wales)} wales have no stitch edge in the fabric, first "
+                    f"{describe(g, p)} -> {describe(g, s)}",
+                )
+            )
     return out
 
 
 def _pieces(g: StitchGraph, skel, ex: Expected) -> list[Mismatch]:
     """As many pieces of fabric as the design has garments (nodes joined by connections)."""
     nodes = list(g.node_names)
-    designed = _components(len(nodes), [(nodes.index(c.a.node), nodes.index(c.b.node))
-                                        for c in skel.connections])
+    designed = _components(
+        len(nodes), [(nodes.index(c.a.node), nodes.index(c.b.node)) for c in skel.connections]
+    )
     made = _components(g.n_stitches, list(ex.realized) + _course_edges(g))
     if made != designed:
-        return [Mismatch("pieces", -1, f"the fabric is {made} piece(s); the design has "
-                         f"{designed} garment(s)")]
+        return [
+            Mismatch(
+                "pieces", -1, f"the fabric is {made} piece(s); the design has {designed} garment(s)"
+            )
+        ]
     return []
 
 
@@ -481,12 +572,12 @@ def describe_all(mismatches: list[Mismatch], limit: int = 25) -> str:
 
 # ---- for tests --------------------------------------------------------------------------------
 
+
 def _source_of(i: int, r: Result) -> str:
     """A design's name in a failure: its source text and `-D` values, to reproduce it."""
     from knitc.frontend.fmt import format_expr
 
-    text = next((f.text for p, f in r.diagnostics.sources.items()
-                 if not p.startswith("<")), "")
+    text = next((f.text for p, f in r.diagnostics.sources.items() if not p.startswith("<")), "")
     defines = " ".join(f"-D {k}={format_expr(v)}" for k, v in r.defines.items())
     return f"design {i} ({defines or 'no -D'}):\n{text}"
 
@@ -497,9 +588,13 @@ the design's line: a design may be hazardous (the designer's choice, warned abou
 never silently so."""
 
 
-def assert_knits_as_designed(results: Sequence[Result], *, names: Sequence[str] | None = None,
-                             allow: Sequence[Iterable[str]] | Iterable[str] = (),
-                             dropped_ok: Sequence[Iterable[int]] | None = None) -> None:
+def assert_knits_as_designed(
+    results: Sequence[Result],
+    *,
+    names: Sequence[str] | None = None,
+    allow: Sequence[Iterable[str]] | Iterable[str] = (),
+    dropped_ok: Sequence[Iterable[int]] | None = None,
+) -> None:
     """Run every compiled design on the independent machine (one oracle process for all) and
     fail, listing every problem of every design, unless each runs clean (`assert_clean`) and
     knits the fabric its design says (`check_fabric`). A hazard the design's own diagnostics
@@ -513,8 +608,9 @@ def assert_knits_as_designed(results: Sequence[Result], *, names: Sequence[str] 
     from oracle import run_oracle_on_text
 
     names = list(names) if names is not None else [_source_of(i, r) for i, r in enumerate(results)]
-    allows = list(allow) if allow and not isinstance(next(iter(allow)), str) else \
-        [allow] * len(results)
+    allows = (
+        list(allow) if allow and not isinstance(next(iter(allow)), str) else [allow] * len(results)
+    )
     texts = []
     for name, r in zip(names, results, strict=True):
         assert r.program is not None, f"{name} did not compile:\n{r.diagnostics.render()}"
@@ -531,10 +627,13 @@ def assert_knits_as_designed(results: Sequence[Result], *, names: Sequence[str] 
         if report.fabric is None:
             failures.append(f"{name}: the oracle returned no knit graph")
             continue
-        bad = check_fabric(r, Fabric.from_json(report.fabric),
-                           dropped_ok=dropped_ok[i] if dropped_ok else ())
+        bad = check_fabric(
+            r, Fabric.from_json(report.fabric), dropped_ok=dropped_ok[i] if dropped_ok else ()
+        )
         if bad:
-            failures.append(f"{name}: the fabric is not the design ({len(bad)} mismatch(es)):\n"
-                            + describe_all(bad))
+            failures.append(
+                f"{name}: the fabric is not the design ({len(bad)} mismatch(es)):\n"
+                + describe_all(bad)
+            )
     if failures:
         raise AssertionError("\n\n".join(failures))

@@ -80,8 +80,9 @@ def layout(g: StitchGraph, needles: int, diags: Diagnostics) -> Layout | None:
         frame[node] = f
         placed[node] = True
         needle[ids] = _physical(g, ids, s, f)
-        right_edge = max(right_edge, int(needle[ids].max()) + 1 + MARGIN,
-                         max(root_slot.values(), default=0))
+        right_edge = max(
+            right_edge, int(needle[ids].max()) + 1 + MARGIN, max(root_slot.values(), default=0)
+        )
     lo = int(needle.min()) if needle.size else 0
     if lo < MARGIN:
         shift = MARGIN - lo
@@ -90,14 +91,17 @@ def layout(g: StitchGraph, needles: int, diags: Diagnostics) -> Layout | None:
         frame += shift
     out = Layout(g.side.astype(np.int8), needle.astype(np.int32), step, frame.astype(np.int32))
     if out.width > needles:
-        diags.error("E601", f"the garment needs {out.width} needles but the machine has "
-                    f"{needles}", None, hint="narrow the design or use a wider machine")
+        diags.error(
+            "E601",
+            f"the garment needs {out.width} needles but the machine has {needles}",
+            None,
+            hint="narrow the design or use a wider machine",
+        )
         return None
     return out
 
 
-def _root_slots(g: StitchGraph, step: np.ndarray, first_course: dict[int, int]
-                ) -> dict[int, int]:
+def _root_slots(g: StitchGraph, step: np.ndarray, first_course: dict[int, int]) -> dict[int, int]:
     """Left needles for the pieces that start a yarn of their own, side by side in the order
     in which they will meet: pieces feeding one merge are placed in the order of the
     branches they enter, so their loops never cross on the way into it."""
@@ -132,8 +136,9 @@ def _root_slots(g: StitchGraph, step: np.ndarray, first_course: dict[int, int]
         for n in chain:
             ids = np.nonzero(g.node == n)[0]
             if ids.size:
-                width = max(width, int((g.needle[ids].max() - g.needle[ids].min() + 1)
-                                       * step[n] + 1))
+                width = max(
+                    width, int((g.needle[ids].max() - g.needle[ids].min() + 1) * step[n] + 1)
+                )
         extent[r] = width
         if merge is None:
             keys[r] = (first_course[r], 0.0)

@@ -21,12 +21,21 @@ def assert_golden(path: Path, actual: str, what: str) -> None:
         path.write_text(actual, encoding="utf-8")
         return
     if not path.exists():
-        pytest.fail(f"{path.name} is missing; create it with KNITC_UPDATE_GOLDEN=1, then "
-                    "review it", pytrace=False)
+        pytest.fail(
+            f"{path.name} is missing; create it with KNITC_UPDATE_GOLDEN=1, then review it",
+            pytrace=False,
+        )
     expected = path.read_text(encoding="utf-8")
     if actual != expected:
-        diff = "".join(difflib.unified_diff(
-            expected.splitlines(keepends=True), actual.splitlines(keepends=True),
-            fromfile=f"{path.name} (expected)", tofile=f"{what} (actual)"))
-        pytest.fail(f"{what} differs from {path.name} (KNITC_UPDATE_GOLDEN=1 to accept):\n"
-                    f"{diff}", pytrace=False)
+        diff = "".join(
+            difflib.unified_diff(
+                expected.splitlines(keepends=True),
+                actual.splitlines(keepends=True),
+                fromfile=f"{path.name} (expected)",
+                tofile=f"{what} (actual)",
+            )
+        )
+        pytest.fail(
+            f"{what} differs from {path.name} (KNITC_UPDATE_GOLDEN=1 to accept):\n{diff}",
+            pytrace=False,
+        )

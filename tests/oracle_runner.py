@@ -547,7 +547,6 @@ class Oracle:
             kg = machine.knit_graph
             report["knit_graph"] = {"loops": kg.loop_count, "stitches": kg.edge_count}
 
-
     @staticmethod
     def _fabric(machine, born: dict[int, int]) -> dict:
         """The knit graph as plain data (see the module docstring): every loop with the
@@ -569,11 +568,19 @@ class Oracle:
             line = born.get(lp.loop_id, -1)
             needle = lp.needle_history[0] if getattr(lp, "needle_history", None) else None
             parents = [p.loop_id for p in lp.parent_loops]
-            pulls = [int(kg.get_pull_direction(p, lp) is Pull_Direction.BtF)
-                     for p in lp.parent_loops]
-            loops.append([lp.loop_id, line + 1 if line >= 0 else None,
-                          None if needle is None else str(needle), yarn_of.get(lp.loop_id),
-                          parents, pulls])
+            pulls = [
+                int(kg.get_pull_direction(p, lp) is Pull_Direction.BtF) for p in lp.parent_loops
+            ]
+            loops.append(
+                [
+                    lp.loop_id,
+                    line + 1 if line >= 0 else None,
+                    None if needle is None else str(needle),
+                    yarn_of.get(lp.loop_id),
+                    parents,
+                    pulls,
+                ]
+            )
         return {"loops": loops, "yarns": out_yarns}
 
 
@@ -605,8 +612,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("files", nargs="+", metavar="FILE.k")
     ap.add_argument("--timeout", type=float, default=None, help="seconds allowed per file")
-    ap.add_argument("--fabric", action="store_true",
-                    help="also report the knit graph of each file (loops, parents, yarns)")
+    ap.add_argument(
+        "--fabric",
+        action="store_true",
+        help="also report the knit graph of each file (loops, parents, yarns)",
+    )
     args = ap.parse_args(argv)
 
     real_stdout = sys.stdout

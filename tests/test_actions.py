@@ -77,7 +77,8 @@ def made_by(r, s: int, want: str) -> None:
         assert ops[0].kind == "tuck" and ops[0].dir == d and ops[0].needle.bed == home
     elif want == "miss":
         assert [o.kind for o in ops][:1] == ["miss"] and "knit" not in [
-            o.kind for o in ops if o.needle.bed == home and o.dir == d]
+            o.kind for o in ops if o.needle.bed == home and o.dir == d
+        ]
     elif want == "kickback":
         assert [(o.kind, o.dir) for o in ops][:2] == [("miss", d), ("knit", -d)]
     elif want == "split":
@@ -87,6 +88,7 @@ def made_by(r, s: int, want: str) -> None:
 
 
 # ---- every built-in action, on a sheet and a half-gauge tube -------------------------------------
+
 
 def test_builtin_actions_make_their_stitches_and_run_clean_on_the_machine():
     texts: list = []
@@ -104,15 +106,18 @@ def test_builtin_actions_make_their_stitches_and_run_clean_on_the_machine():
     assert_knits_as_designed(texts)
 
 
-@pytest.mark.parametrize("machine", ["", "machine { cast_on: none }\n",
-                                     "machine { cast_on: precast }\n"])
+@pytest.mark.parametrize(
+    "machine", ["", "machine { cast_on: none }\n", "machine { cast_on: precast }\n"]
+)
 def test_actions_on_the_first_course_knit_through_the_cast_on(machine):
     # the first course's loops are the cast-on's (or none): a purl carries its cast-on loop
     # across, a split holds it
     texts = []
     for a, q in (("purl", "all()"), ("split", "courses(0)"), ("kickback", "courses(0)")):
-        for shape in ("sheet s { length: 4  width: 5 }\n",
-                      "tube s { length: 4  width: 4  gauge: half }\n"):
+        for shape in (
+            "sheet s { length: 4  width: 5 }\n",
+            "tube s { length: 4  width: 4  gauge: half }\n",
+        ):
             r = build(machine + shape + f"pattern s {{ use {a} where {q} }}\n")
             first = [s for s in selected(r) if int(r.graph.wale_prev[s, 0]) < 0]
             assert first
@@ -127,21 +132,26 @@ def test_actions_on_the_first_course_knit_through_the_cast_on(machine):
 
 
 def test_builtins_need_no_import_and_a_design_may_redefine_them():
-    assert {"purl", "split", "kickback"} <= set(pattern_actions.names(build(
-        "sheet s { length: 2  width: 2 }\n", "skeleton").skeleton))
-    own = ("action purl { main { tuck(dir, needle, carriers) } }\n"
-           "sheet s { length: 4  width: 4 }\npattern s { use purl where select(1, 1) }\n")
+    assert {"purl", "split", "kickback"} <= set(
+        pattern_actions.names(build("sheet s { length: 2  width: 2 }\n", "skeleton").skeleton)
+    )
+    own = (
+        "action purl { main { tuck(dir, needle, carriers) } }\n"
+        "sheet s { length: 4  width: 4 }\npattern s { use purl where select(1, 1) }\n"
+    )
     r = build(own)
     [s] = selected(r)
     assert [o.kind for o in stitch_ops(r, s)] == ["tuck"]  # the design's, not the stdlib's
 
 
 def test_ids_index_the_actions_sorted_by_name():
-    src = ("action zz { main { tuck(dir, needle, carriers) } }\n"
-           "action aa { main { miss(dir, needle, carriers) } }\n"
-           "sheet s { length: 3  width: 4 }\n"
-           "pattern s {\n  use zz where wales(0)\n  use aa where wales(1)\n"
-           "  use purl where wales(2)\n}\n")
+    src = (
+        "action zz { main { tuck(dir, needle, carriers) } }\n"
+        "action aa { main { miss(dir, needle, carriers) } }\n"
+        "sheet s { length: 3  width: 4 }\n"
+        "pattern s {\n  use zz where wales(0)\n  use aa where wales(1)\n"
+        "  use purl where wales(2)\n}\n"
+    )
     r = build(src)
     names = pattern_actions.names(r.skeleton)
     assert names == sorted(names) and names[0] == "aa"
@@ -177,16 +187,15 @@ def test_a_user_action_emits_exactly_its_steps():
     d = "+" if direction(r, s) > 0 else "-"
     n = r.program.ops[next(i for i, o in enumerate(r.program) if o.stitch == s)].needle.index
     got = [str(o) for o in stitch_ops(r, s)]
-    assert got == [f"xfer f{n} b{n}", f"miss {d} f{n} 3", f"knit {d} b{n} 3",
-                   f"xfer b{n} f{n}"]
+    assert got == [f"xfer f{n} b{n}", f"miss {d} f{n} 3", f"knit {d} b{n} 3", f"xfer b{n} f{n}"]
     # the transfers are made at racking 0, the knit with the plain stitch number
     ops = list(r.program)
     at = [ops.index(o) for o in stitch_ops(r, s)]
-    racks = [o.value for o in ops[:at[0]] if o.kind == "rack"]
+    racks = [o.value for o in ops[: at[0]] if o.kind == "rack"]
     assert not racks or racks[-1] == 0
-    numbers = [o.value for o in ops[:at[2]] if o.kind == "stitch_number"]
+    numbers = [o.value for o in ops[: at[2]] if o.kind == "stitch_number"]
     assert numbers[-1] == 5  # the knit: the plain stitch number
-    assert [o.value for o in ops[:at[0]] if o.kind == "stitch_number"][-1] == 0  # transfers
+    assert [o.value for o in ops[: at[0]] if o.kind == "stitch_number"][-1] == 0  # transfers
     assert_knits_as_designed([r])
 
 
@@ -207,8 +216,11 @@ pattern s { use ctx where courses(1) }
     plain = build("sheet s { length: 4  width: 5 }\n")
     w0 = min(o.needle.index for o in plain.program if o.kind == "knit")
     r = build(src.replace("first", str(w0)))
-    ids = [int(x) for x in r.trace.stitch if int(r.graph.course[x]) == int(
-        r.graph.course[selected(r)[0]])]
+    ids = [
+        int(x)
+        for x in r.trace.stitch
+        if int(r.graph.course[x]) == int(r.graph.course[selected(r)[0]])
+    ]
     assert sorted(ids) == sorted(selected(r))
     for i, s in enumerate(ids):
         assert [o.kind for o in stitch_ops(r, s)] == ["knit" if i % 2 == 0 else "tuck"]
@@ -237,13 +249,14 @@ pattern s { use hop where select(1, 1) }
     assert [(o.needle.bed, o.needle2.bed) for o in xf] == [("f", "b"), ("b", "f")]
     assert xf[0].needle2.index == xf[0].needle.index + 1 == xf[1].needle.index
     ops = list(r.program)
-    rack = [o.value for o in ops[:ops.index(xf[0])] if o.kind == "rack"]
+    rack = [o.value for o in ops[: ops.index(xf[0])] if o.kind == "rack"]
     assert rack and rack[-1] == -1  # front n faces back n + 1 at racking -1
     assert ops[-1].kind != "rack" and r.program.racking == 0  # and the machine unracks
     assert_knits_as_designed([r])
 
 
 # ---- split_by_side ----------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("split", [True, False])
 def test_split_by_side_runs_each_bed_as_its_own_pass(split, monkeypatch):
@@ -252,18 +265,25 @@ def test_split_by_side_runs_each_bed_as_its_own_pass(split, monkeypatch):
 
     def spy(gen, acts):
         parts = prepare(gen, acts)
-        passes.append(([a.stitch for a in acts], [[a.stitch for a in p] for p in parts],
-                       {a.stitch: gen.pos(a.stitch)[0] for a in acts},
-                       [a.stitch for a in acts if isinstance(a, actions.UserAction)]))
+        passes.append(
+            (
+                [a.stitch for a in acts],
+                [[a.stitch for a in p] for p in parts],
+                {a.stitch: gen.pos(a.stitch)[0] for a in acts},
+                [a.stitch for a in acts if isinstance(a, actions.UserAction)],
+            )
+        )
         return parts
 
     monkeypatch.setattr(actions, "prepare_pass", spy)
     prop = "split_by_side: true" if split else ""
     # a growing tube: its passes start with a stitch of the other bed
-    src = (f"action rev {{ {prop}\n  pre {{ xfer(needle, opposite) }}\n"
-           "  main { knit(dir, opposite, carriers) }\n  post { xfer(opposite, needle) }\n}\n"
-           "tube t { length: 6  width: [0: 4, 1: 8]  gauge: half }\n"
-           "pattern t { use rev where courses(1:end) }\n")
+    src = (
+        f"action rev {{ {prop}\n  pre {{ xfer(needle, opposite) }}\n"
+        "  main { knit(dir, opposite, carriers) }\n  post { xfer(opposite, needle) }\n}\n"
+        "tube t { length: 6  width: [0: 4, 1: 8]  gauge: half }\n"
+        "pattern t { use rev where courses(1:end) }\n"
+    )
     r = build(src)
     ops = list(r.program)
     first_op = {}
@@ -278,8 +298,14 @@ def test_split_by_side_runs_each_bed_as_its_own_pass(split, monkeypatch):
         # the pass's ops: its action pass's, up to the next pass's first (later transfers of
         # its loops belong to the alignment and shaping of the next slices)
         end = min(first_op[s] for s in passes[k + 1][0]) if k + 1 < len(passes) else len(ops)
-        where = {s: [i for i, o in enumerate(ops[:end]) if o.stitch == s and o.kind in (
-            "xfer", "knit", "tuck") and o.phase == "action"] for s in ids}
+        where = {
+            s: [
+                i
+                for i, o in enumerate(ops[:end])
+                if o.stitch == s and o.kind in ("xfer", "knit", "tuck") and o.phase == "action"
+            ]
+            for s in ids
+        }
         if split:
             assert [len({bed[s] for s in p}) for p in parts] == [1] * len(parts) > [1]
             for p, q in zip(parts, parts[1:]):  # every op of a run before the next run's
@@ -295,6 +321,7 @@ def test_split_by_side_runs_each_bed_as_its_own_pass(split, monkeypatch):
 
 # ---- transfer_back ----------------------------------------------------------------------------
 
+
 def test_transfer_back_false_skips_the_post_step_while_the_wale_goes_on(monkeypatch):
     made = {}
     lower = actions.lower
@@ -305,8 +332,10 @@ def test_transfer_back_false_skips_the_post_step_while_the_wale_goes_on(monkeypa
         return a
 
     monkeypatch.setattr(actions, "lower", spy)
-    r = build("import std.actions (purl_flat)\nsheet s { length: 6  width: 4 }\n"
-              "pattern s { use purl_flat where wales(1) and courses(1:end) }\n")
+    r = build(
+        "import std.actions (purl_flat)\nsheet s { length: 6  width: 4 }\n"
+        "pattern s { use purl_flat where wales(1) and courses(1:end) }\n"
+    )
     g = r.graph
     assert made and set(made) == set(selected(r))
     for s, (a, gen) in made.items():
@@ -317,13 +346,20 @@ def test_transfer_back_false_skips_the_post_step_while_the_wale_goes_on(monkeypa
     # and the loop really waits on the back bed: one transfer there, one home, for the
     # whole wale (the cast-off's own transfers aside)
     last = g.n_courses - 1
-    xfers = [o for o in r.program if o.kind == "xfer" and 0 <= o.stitch
-             and int(g.course[o.stitch]) < last and o.stitch in made]
+    xfers = [
+        o
+        for o in r.program
+        if o.kind == "xfer"
+        and 0 <= o.stitch
+        and int(g.course[o.stitch]) < last
+        and o.stitch in made
+    ]
     assert len(xfers) == 1
     assert_knits_as_designed([r])
 
 
 # ---- `use knit` and what actions never change ---------------------------------------------------
+
 
 @st.composite
 def shapes(draw) -> str:
@@ -337,8 +373,15 @@ def shapes(draw) -> str:
     return f"{machine}{kind} x {{ length: {length}  width: {width}  {props} }}\n"
 
 
-QUERIES = ("all()", "courses(0)", "courses(1:end)", "wales(0:2)", "filter(wale % 2 == 0)",
-           "side(back)", "courses(-1)")
+QUERIES = (
+    "all()",
+    "courses(0)",
+    "courses(1:end)",
+    "wales(0:2)",
+    "filter(wale % 2 == 0)",
+    "side(back)",
+    "courses(-1)",
+)
 
 
 @settings(max_examples=25, deadline=None)
@@ -352,28 +395,51 @@ def test_plain_actions_give_the_machine_program_of_no_action(shape, queries):
         # a purl layer undone by `use knit`
         shape + "pattern x {\n  set P\n  use purl\n  use knit\n}\n",
         # a user action that knits: the same operations as the built-in lowering
-        own + shape + "pattern x {\n" + "".join(f"  use plain where {q}\n"
-                                                for q in queries) + "}\n",
+        own
+        + shape
+        + "pattern x {\n"
+        + "".join(f"  use plain where {q}\n" for q in queries)
+        + "}\n",
     ):
         r = build(src)
         assert [(str(o), o.stitch) for o in r.program] == want
 
 
 @settings(max_examples=30, deadline=None)
-@given(shapes(), st.lists(st.tuples(st.sampled_from(BUILTINS + ("own",)),
-                                    st.sampled_from(QUERIES)), min_size=1, max_size=4))
+@given(
+    shapes(),
+    st.lists(
+        st.tuples(st.sampled_from(BUILTINS + ("own",)), st.sampled_from(QUERIES)),
+        min_size=1,
+        max_size=4,
+    ),
+)
 def test_use_never_creates_or_deletes_stitches(shape, uses):
-    src = ("import std.actions (purl_flat)\naction own { main { tuck(dir, needle, carriers) } }\n"
-           + shape + "pattern x {\n" + "".join(f"  use {a} where {q}\n" for a, q in uses)
-           + "}\n")
+    src = (
+        "import std.actions (purl_flat)\naction own { main { tuck(dir, needle, carriers) } }\n"
+        + shape
+        + "pattern x {\n"
+        + "".join(f"  use {a} where {q}\n" for a, q in uses)
+        + "}\n"
+    )
     r = build(src, "skeleton")
     diags = Diagnostics()
     raw = build_stitch_graph(r.skeleton, diags)
     out = apply_patterns(r.skeleton, raw, diags)
     assert not diags.has_errors, diags.render()
     assert out.n_stitches == raw.n_stitches
-    for name in ("node", "course", "side", "needle", "cprev", "cnext", "wale_prev",
-                 "wale_next", "course_start", "course_len"):
+    for name in (
+        "node",
+        "course",
+        "side",
+        "needle",
+        "cprev",
+        "cnext",
+        "wale_prev",
+        "wale_next",
+        "course_start",
+        "course_len",
+    ):
         assert np.array_equal(getattr(out, name), getattr(raw, name)), name
     # the last `use` of each stitch wins; the built-in knit resets to plain
     names = pattern_actions.names(r.skeleton)
@@ -391,26 +457,34 @@ def test_use_never_creates_or_deletes_stitches(shape, uses):
 
 # ---- runtime errors ---------------------------------------------------------------------------
 
+
 def _user(body: str, props: str = "", shape: str = "sheet s { length: 3  width: 3 }") -> str:
-    return (f"action bad {{ {props}\n  {body}\n}}\n{shape}\n"
-            "pattern s { use bad where courses(1) }\n")
+    return (
+        f"action bad {{ {props}\n  {body}\n}}\n{shape}\npattern s {{ use bad where courses(1) }}\n"
+    )
 
 
-@pytest.mark.parametrize("body, code", [
-    ("main { knit(dir, needle + 1000, carriers) }", "E722"),
-    ("pre { xfer(needle, opposite + 7) }\n  main { knit(dir, opposite + 7, carriers) }\n"
-     "  post { xfer(opposite + 7, needle) }", "E721"),
-    ("main { knit(needle) }", "E723"),
-    ("main { knit(dir, 3, carriers) }", "E723"),
-    ("pre { xfer(needle, needle + 1) }\n  main { knit(dir, needle, carriers) }", "E724"),
-    ("main { knit(dir, needle, 7) }", "E725"),
-    ("pre { xfer(needle + 1, opposite) }\n  main { knit(dir, needle, carriers) }", "E720"),
-    ("main { split(dir, needle, opposite, carriers) }", "E726"),
-    ("main { knit(dir, needle, carriers)\n  tuck(dir, needle + 1, carriers) }", "E726"),
-    ("main { for i in range(100000) { let x = i }\n  knit(dir, needle, carriers) }", "E316"),
-    ("main { knit(dir, needle, carriers, sideways = 1) }", "E304"),
-    ("main { knit(dir, needle.colour, carriers) }", "E303"),
-])
+@pytest.mark.parametrize(
+    "body, code",
+    [
+        ("main { knit(dir, needle + 1000, carriers) }", "E722"),
+        (
+            "pre { xfer(needle, opposite + 7) }\n  main { knit(dir, opposite + 7, carriers) }\n"
+            "  post { xfer(opposite + 7, needle) }",
+            "E721",
+        ),
+        ("main { knit(needle) }", "E723"),
+        ("main { knit(dir, 3, carriers) }", "E723"),
+        ("pre { xfer(needle, needle + 1) }\n  main { knit(dir, needle, carriers) }", "E724"),
+        ("main { knit(dir, needle, 7) }", "E725"),
+        ("pre { xfer(needle + 1, opposite) }\n  main { knit(dir, needle, carriers) }", "E720"),
+        ("main { split(dir, needle, opposite, carriers) }", "E726"),
+        ("main { knit(dir, needle, carriers)\n  tuck(dir, needle + 1, carriers) }", "E726"),
+        ("main { for i in range(100000) { let x = i }\n  knit(dir, needle, carriers) }", "E316"),
+        ("main { knit(dir, needle, carriers, sideways = 1) }", "E304"),
+        ("main { knit(dir, needle.colour, carriers) }", "E303"),
+    ],
+)
 def test_runtime_mistakes_are_located_errors(body, code):
     r = compiled_with_errors(_user(body))
     errors = [d for d in r.diagnostics if d.is_error]
@@ -434,8 +508,10 @@ def test_a_purl_on_a_full_gauge_tube_is_an_error_at_the_stdlib_line_and_the_use(
 
 
 def test_actions_on_increases_warn_at_the_use():
-    src = ("sheet s { length: 5  width: [0: 4, 1: 8] }\n"
-           "pattern s { use kickback where courses(1:end) }\n")
+    src = (
+        "sheet s { length: 5  width: [0: 4, 1: 8] }\n"
+        "pattern s { use kickback where courses(1:end) }\n"
+    )
     r = build(src)
     [w] = [d for d in r.diagnostics if d.code == "W720"]
     assert w.span.line == 2 and "increase" in w.message

@@ -32,14 +32,24 @@ SHAPES = ("flat", "tube")
 GAUGES = ("full", "half")
 
 
-def design(shape: str = "flat", gauge: str = "full", cast_on: str = "interlock",
-           cast_off: str = "pickup", increase: str = "kickback", width: str = "6",
-           length: int = 4, shaper: str = "uniform", extra: str = "") -> str:
+def design(
+    shape: str = "flat",
+    gauge: str = "full",
+    cast_on: str = "interlock",
+    cast_off: str = "pickup",
+    increase: str = "kickback",
+    width: str = "6",
+    length: int = 4,
+    shaper: str = "uniform",
+    extra: str = "",
+) -> str:
     kind = "sheet s { type: flat" if shape == "flat" else "tube s {"
-    return (f"machine {{ gauge: {gauge}  cast_on: {cast_on}  cast_off: {cast_off}  "
-            f"increase: {increase} }}\n"
-            f"{kind}  length: {length}  width: {width}  shaper: {shaper} }}\n"
-            f"start s.bottom\n{extra}\n")
+    return (
+        f"machine {{ gauge: {gauge}  cast_on: {cast_on}  cast_off: {cast_off}  "
+        f"increase: {increase} }}\n"
+        f"{kind}  length: {length}  width: {width}  shaper: {shaper} }}\n"
+        f"start s.bottom\n{extra}\n"
+    )
 
 
 @functools.cache
@@ -85,34 +95,48 @@ def cast_on_ops(src: str) -> list[Op]:
     seq = ops(src)
     i0 = index_of(seq, lambda o: o.kind == "releasehook")
     i1 = index_of(seq, lambda o: o.kind == "stitch_number" and o.value in (5, 6), i0)
-    return loops(seq[i0 + 1:i1])
+    return loops(seq[i0 + 1 : i1])
 
 
 def cast_off_ops(src: str) -> list[Op]:
     seq = ops(src)
     i0 = index_of(seq, lambda o: o.kind == "stitch_number" and o.value == 24)
     i1 = index_of(seq, lambda o: o.kind == "outhook", i0)
-    return seq[i0:i1 + 2]
+    return seq[i0 : i1 + 2]
 
 
 ALL_CAST_ONS = [design(s, g, cast_on=c) for s, g, c in itertools.product(SHAPES, GAUGES, CAST_ONS)]
-ALL_CAST_OFFS = [design(s, g, cast_off=c) for s, g, c in itertools.product(SHAPES, GAUGES, CAST_OFFS)]
+ALL_CAST_OFFS = [
+    design(s, g, cast_off=c) for s, g, c in itertools.product(SHAPES, GAUGES, CAST_OFFS)
+]
 WIDENING = "[0: 4, 1: 8]"
-INCREASES = [design(s, g, increase=i, width=WIDENING, length=6, shaper=sh)
-             for s, g, i, sh in itertools.product(SHAPES, GAUGES, ("kickback", "split"),
-                                                  ("uniform", "sides"))]
-PRECAST_WIDENING = [design(s, g, cast_on="precast", width=WIDENING, length=6)
-                    for s, g in itertools.product(SHAPES, GAUGES)]
-FOLD_SPLIT = ("sheet n1 { length: 2  type: cylinder  width: 1  gauge: half  increase: split }\n"
-              "n1.bottom closed\n")
+INCREASES = [
+    design(s, g, increase=i, width=WIDENING, length=6, shaper=sh)
+    for s, g, i, sh in itertools.product(
+        SHAPES, GAUGES, ("kickback", "split"), ("uniform", "sides")
+    )
+]
+PRECAST_WIDENING = [
+    design(s, g, cast_on="precast", width=WIDENING, length=6)
+    for s, g in itertools.product(SHAPES, GAUGES)
+]
+FOLD_SPLIT = (
+    "sheet n1 { length: 2  type: cylinder  width: 1  gauge: half  increase: split }\n"
+    "n1.bottom closed\n"
+)
 """A closed end of one stitch that grows onto both beds: the split goes across the fold."""
-CLOSED_STARTS = [f"machine {{ gauge: {g}  increase: {i} }}\ntube t {{ length: 4  width: 6 }}\n"
-                 "t.bottom closed\n" for g in GAUGES for i in ("kickback", "split")]
-ALL_DESIGNS = ALL_CAST_ONS + ALL_CAST_OFFS + INCREASES + PRECAST_WIDENING + [FOLD_SPLIT] + \
-    CLOSED_STARTS
+CLOSED_STARTS = [
+    f"machine {{ gauge: {g}  increase: {i} }}\ntube t {{ length: 4  width: 6 }}\nt.bottom closed\n"
+    for g in GAUGES
+    for i in ("kickback", "split")
+]
+ALL_DESIGNS = (
+    ALL_CAST_ONS + ALL_CAST_OFFS + INCREASES + PRECAST_WIDENING + [FOLD_SPLIT] + CLOSED_STARTS
+)
 
 
 # ---- the independent machine ------------------------------------------------------------------
+
 
 def test_every_design_knits_its_design_on_the_independent_machine():
     assert_knits_as_designed([build(src) for src in ALL_DESIGNS], names=ALL_DESIGNS)
@@ -120,9 +144,14 @@ def test_every_design_knits_its_design_on_the_independent_machine():
 
 # ---- options ----------------------------------------------------------------------------------
 
+
 def test_options_come_from_the_interface_else_the_machine():
-    src = design(cast_on="tuck", cast_off="direct", increase="split",
-                 extra="s.bottom { cast_on: kickback }\ns.top { cast_off: reverse }")
+    src = design(
+        cast_on="tuck",
+        cast_off="direct",
+        increase="split",
+        extra="s.bottom { cast_on: kickback }\ns.top { cast_off: reverse }",
+    )
     src = src.replace("shaper: uniform", "shaper: uniform  increase: kickback")
     opts = options_from_skeleton(build(src).skeleton)
     assert opts.cast_on_for(("s.bottom",)) == "kickback"
@@ -145,6 +174,7 @@ def test_an_interface_cast_on_changes_the_program():
 
 # ---- yarn start -------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("src", ALL_CAST_ONS, ids=lambda s: " ".join(s.split()[3:6:2]))
 def test_yarn_start_hooks_catches_and_releases(src):
     seq = ops(src)
@@ -156,8 +186,11 @@ def test_yarn_start_hooks_catches_and_releases(src):
     # the first pass after inhook goes leftward; the zigzag ends rightward (so the hook's
     # release follows a pass the other way) unless the cast-on starts rightward right of it
     rightward_after = first.dir > 0 and first.needle.index > max(o.needle.index for o in catch)
-    assert len(catch) == cast.CATCH_TUCKS if rightward_after else \
-        len(catch) in (cast.CATCH_TUCKS, cast.CATCH_TUCKS + 1)
+    assert (
+        len(catch) == cast.CATCH_TUCKS
+        if rightward_after
+        else len(catch) in (cast.CATCH_TUCKS, cast.CATCH_TUCKS + 1)
+    )
     assert [o.dir for o in catch] == [(-1) ** (k + 1) for k in range(len(catch))]
     # the hook sits right of the first tuck and blocks every needle to its right
     assert all(o.needle.index <= catch[0].needle.index for o in catch)
@@ -168,10 +201,18 @@ def test_yarn_start_hooks_catches_and_releases(src):
     # dropped once the first course has been knitted
     drops = [i for i, o in enumerate(seq) if o.kind == "drop" and pos(o) in catch_pos]
     assert len(drops) == len(catch)
-    first_stitches = {o.stitch for o in seq if o.kind in ("knit", "tuck") and o.stitch >= 0
-                      and pos(o) in {p for p, _ in first_course(src)}}
-    last_first = max(i for i, o in enumerate(seq) if o.stitch in first_stitches
-                     and o.kind in ("knit", "tuck") and i < min(drops))
+    first_stitches = {
+        o.stitch
+        for o in seq
+        if o.kind in ("knit", "tuck")
+        and o.stitch >= 0
+        and pos(o) in {p for p, _ in first_course(src)}
+    }
+    last_first = max(
+        i
+        for i, o in enumerate(seq)
+        if o.stitch in first_stitches and o.kind in ("knit", "tuck") and i < min(drops)
+    )
     assert all(d > last_first for d in drops)
 
 
@@ -199,6 +240,7 @@ start a.bottom
 
 # ---- cast-ons ---------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("shape,gauge", list(itertools.product(SHAPES, GAUGES)))
 def test_interlock_casts_alternate_needles_then_the_rest(shape, gauge):
     src = design(shape, gauge, cast_on="interlock")
@@ -206,7 +248,7 @@ def test_interlock_casts_alternate_needles_then_the_rest(shape, gauge):
     got = cast_on_ops(src)
     assert all(o.kind == "tuck" for o in got)
     n = len(course)
-    first, second = got[:(n + 1) // 2], got[(n + 1) // 2:]
+    first, second = got[: (n + 1) // 2], got[(n + 1) // 2 :]
     assert [pos(o) for o in first] == [p for p, _ in course[0::2]]
     assert [o.dir for o in first] == [d for _, d in course[0::2]]
     if shape == "tube":  # twice around the tube, each time on alternate needles
@@ -264,8 +306,8 @@ def test_precast_covers_every_needle_the_node_will_use(shape, gauge):
         assert any(min(a, b) <= p[1] <= max(a, b) for a, b in moved), p
     assert Counter(pos(o) for o in tucks).most_common(1)[0][1] == 1
     # then knits back to where the first course starts, on needles it does not use
-    back = got[len(tucks):]
-    assert got[:len(tucks)] == tucks and all(o.kind == "knit" for o in back)
+    back = got[len(tucks) :]
+    assert got[: len(tucks)] == tucks and all(o.kind == "knit" for o in back)
     assert not {pos(o) for o in back} & course
 
 
@@ -280,12 +322,16 @@ def test_no_cast_on_lands_the_first_course_as_tucks(shape, gauge):
 
 # ---- cast-offs --------------------------------------------------------------------------------
 
+
 def _moves(seq: list[Op]) -> list[tuple[int, int]]:
     """(index of the op, needle index) where each bind-off loop leaves its needle."""
     out = []
     for i, o in enumerate(seq):
-        if o.kind == "xfer" and o.needle.bed in ("f", "b") and \
-                not (i and seq[i - 1].kind == "xfer" and pos(seq[i - 1]) == pos(o)):
+        if (
+            o.kind == "xfer"
+            and o.needle.bed in ("f", "b")
+            and not (i and seq[i - 1].kind == "xfer" and pos(seq[i - 1]) == pos(o))
+        ):
             out.append((i, o.needle.index))
     return out
 
@@ -300,8 +346,11 @@ def test_pickup_cast_off_adds_a_tuck_on_each_closing_needle(shape):
     # every loop but the first gets a pick-up tuck on the needle the previous one left
     vacated = []
     for i, o in enumerate(seq):
-        if o.kind == "xfer" and o.needle.bed in ("f", "b") and \
-                (not vacated or vacated[-1] != pos(o)):
+        if (
+            o.kind == "xfer"
+            and o.needle.bed in ("f", "b")
+            and (not vacated or vacated[-1] != pos(o))
+        ):
             src_needle = pos(o)
             if any(k.kind == "knit" and pos(k) == src_needle for k in seq[:i]):
                 vacated.append(src_needle)
@@ -327,7 +376,7 @@ def _chain_moves(seq: list[Op]) -> list[tuple[int, Op, Op]]:
         j = i
         while j + 1 < len(seq) and seq[j + 1].kind in ("xfer", "rack"):
             j += 1
-        last = next(o for o in reversed(seq[i:j + 1]) if o.kind == "xfer")
+        last = next(o for o in reversed(seq[i : j + 1]) if o.kind == "xfer")
         out.append((i, seq[i], last))
         i = j + 1
     return out
@@ -392,19 +441,20 @@ def test_a_bind_off_ends_with_a_tail_then_the_yarn_end(cast_off):
     i = index_of(seq, lambda o: o.kind == "outhook")
     assert seq[i - 1].kind == "miss" and seq[i - 1].dir == 1
     tail = []
-    for o in reversed(seq[:i - 1]):
+    for o in reversed(seq[: i - 1]):
         if o.kind != "knit" or (tail and pos(o) != pos(tail[0])):
             break
         tail.insert(0, o)
     assert len(tail) >= cast.TAIL_KNITS - 1  # knits back and forth on the last loop
     assert tail[-1].dir == 1  # ending rightward, where the yarn is taken out
-    assert all(a.dir != b.dir for a, b in itertools.pairwise(tail[-(cast.TAIL_KNITS - 1):]))
+    assert all(a.dir != b.dir for a, b in itertools.pairwise(tail[-(cast.TAIL_KNITS - 1) :]))
     assert seq[i - 1].needle.index == tail[-1].needle.index + 1
     assert seq[i + 1].kind == "drop" and pos(seq[i + 1]) == pos(tail[-1])  # after the outhook
-    assert seq[i + 2:] == []
+    assert seq[i + 2 :] == []
 
 
 # ---- increases --------------------------------------------------------------------------------
+
 
 def _course_dir(r: Result, s: int) -> int:
     t = r.trace
@@ -413,11 +463,13 @@ def _course_dir(r: Result, s: int) -> int:
 
 @pytest.mark.parametrize("shape,gauge", list(itertools.product(SHAPES, GAUGES)))
 def test_kickback_increase_tucks_the_new_needle_the_other_way(shape, gauge):
-    r = build(design(shape, gauge, increase="kickback", width=WIDENING, length=6,
-                     shaper="sides"))
+    r = build(design(shape, gauge, increase="kickback", width=WIDENING, length=6, shaper="sides"))
     seq = r.program.ops
-    kicks = [(i, o) for i, o in enumerate(seq)
-             if o.kind == "tuck" and o.stitch >= 0 and i > 0 and seq[i - 1].value == 7]
+    kicks = [
+        (i, o)
+        for i, o in enumerate(seq)
+        if o.kind == "tuck" and o.stitch >= 0 and i > 0 and seq[i - 1].value == 7
+    ]
     assert len(kicks) >= 4
     g = r.graph
     for _, o in kicks:
@@ -444,8 +496,11 @@ def test_split_increase_splits_the_parent_loop(shape):
         assert mine[0].kind == "miss" and mine[0].dir == _course_dir(r, sib)
         assert not [m for m in seq if m.kind == "tuck" and m.stitch == sib]
         home = mine[0].needle
-        assert [x for x in seq if x.kind == "xfer" and x.stitch == sib
-                and x.needle == o.needle2 and x.needle2 == home]
+        assert [
+            x
+            for x in seq
+            if x.kind == "xfer" and x.stitch == sib and x.needle == o.needle2 and x.needle2 == home
+        ]
         i = seq.index(o)
         assert seq[i - 1].kind == "rack" or seq[i - 1].value == 7
     assert [d.code for d in r.diagnostics] == []
@@ -461,10 +516,10 @@ def test_a_split_across_the_fold_lands_on_the_sibling_needle():
     g = r.graph
     [parent] = [int(p) for p in g.wale_prev[split.stitch] if p >= 0]
     [sib] = [int(k) for k in g.wale_next[parent] if k >= 0 and int(k) != split.stitch]
-    after = ops[ops.index(split) + 1:]
+    after = ops[ops.index(split) + 1 :]
     [knit] = [o for o in after if o.stitch == sib and o.kind in ("knit", "tuck", "miss")][:1]
     assert knit.kind == "knit" and knit.needle == split.needle2
-    assert not [o for o in after[:after.index(knit)] if o.kind == "xfer"]
+    assert not [o for o in after[: after.index(knit)] if o.kind == "xfer"]
 
 
 @pytest.mark.parametrize("gauge", GAUGES)
@@ -476,8 +531,11 @@ def test_a_closed_start_is_closed(gauge, increase):
     r = build(CLOSED_STARTS[GAUGES.index(gauge) * 2 + ("kickback", "split").index(increase)])
     g = r.graph
     first_round = set(g.course_ids(1).tolist())
-    made = [o for o in r.program.ops if o.stitch in first_round and o.phase == "action"
-            and o.kind in ("knit", "tuck", "split")]
+    made = [
+        o
+        for o in r.program.ops
+        if o.stitch in first_round and o.phase == "action" and o.kind in ("knit", "tuck", "split")
+    ]
     assert {o.kind for o in made} == {"knit", "split"}
     assert sum(o.kind == "split" for o in made) == g.course_len[0]
     assert [d.code for d in r.diagnostics if d.is_error] == []
@@ -490,6 +548,7 @@ def test_split_increase_without_a_free_facing_needle_falls_back_with_a_warning()
 
 
 # ---- stitch numbers, carriers -----------------------------------------------------------------
+
 
 @pytest.mark.parametrize("gauge,number", [("full", 5), ("half", 6)])
 def test_every_loop_op_follows_the_stitch_number_of_its_pass(gauge, number):
@@ -509,8 +568,14 @@ def test_every_loop_op_follows_the_stitch_number_of_its_pass(gauge, number):
 
 def test_stitch_numbers_are_a_documented_profile():
     n = cast.STITCH_NUMBERS
-    assert (n.cast_on, n.knit, n.knit_half_gauge, n.increase, n.cast_off, n.transfer) == \
-        (33, 5, 6, 7, 24, 0)
+    assert (n.cast_on, n.knit, n.knit_half_gauge, n.increase, n.cast_off, n.transfer) == (
+        33,
+        5,
+        6,
+        7,
+        24,
+        0,
+    )
 
 
 def _crossings(seq: list[Op]):
@@ -546,14 +611,14 @@ def test_no_transfer_moves_a_loop_across_a_resting_carrier(src):
 
 
 def test_shaping_parks_a_carrier_left_inside_the_moves():
-    seq = ops(design("flat", "full", cast_on="precast", width=WIDENING, length=6,
-                     shaper="right"))
+    seq = ops(design("flat", "full", cast_on="precast", width=WIDENING, length=6, shaper="right"))
     i = index_of(seq, lambda o: o.kind == "xfer")
     before = [o for o in seq[:i] if o.kind in ("knit", "tuck", "miss")]
     assert before[-1].kind == "miss" and before[-1].stitch == -1
 
 
 # ---- plans, as properties ---------------------------------------------------------------------
+
 
 @st.composite
 def courses(draw):
@@ -611,8 +676,14 @@ def test_precast_covers_the_node_and_ends_where_the_first_course_starts(course, 
     entries, _ = course
     beds = {e.pos[0] for e in entries}
     idx = [e.pos[1] for e in entries]
-    step = min((y - x for bed in beds for x, y in itertools.pairwise(
-        sorted(e.pos[1] for e in entries if e.pos[0] == bed))), default=1)
+    step = min(
+        (
+            y - x
+            for bed in beds
+            for x, y in itertools.pairwise(sorted(e.pos[1] for e in entries if e.pos[0] == bed))
+        ),
+        default=1,
+    )
     lo, hi = min(idx) - left * step, max(idx) + right * step
     cover = {(b, i) for b in beds for i in range(lo, hi + 1, step)} | {e.pos for e in entries}
     plan = cast.plan_precast(entries, cover)
@@ -625,8 +696,11 @@ def test_precast_covers_the_node_and_ends_where_the_first_course_starts(course, 
 
 
 @settings(max_examples=200, deadline=None)
-@given(courses(), st.sets(st.tuples(st.sampled_from("fb"), st.integers(0, 60)), max_size=30),
-       st.sampled_from((1, -1)))
+@given(
+    courses(),
+    st.sets(st.tuples(st.sampled_from("fb"), st.integers(0, 60)), max_size=30),
+    st.sampled_from((1, -1)),
+)
 def test_catching_tucks_take_free_needles_near_the_start(course, taken, outward):
     entries, _ = course
     bed = Bed(None, None, 4)  # type: ignore[arg-type]
@@ -639,9 +713,15 @@ def test_catching_tucks_take_free_needles_near_the_start(course, taken, outward)
     for p in got:
         assert p not in busy and p not in taken and 0 <= p[1] < 64
         assert abs(p[1] - start[1]) <= cast.CATCH_REACH
-    free_outside = [(b, i) for b in "fb" for i in range(64)
-                    if (i - start[1]) * outward > 0 and abs(i - start[1]) <= cast.CATCH_REACH
-                    and (b, i) not in busy and (b, i) not in taken]
+    free_outside = [
+        (b, i)
+        for b in "fb"
+        for i in range(64)
+        if (i - start[1]) * outward > 0
+        and abs(i - start[1]) <= cast.CATCH_REACH
+        and (b, i) not in busy
+        and (b, i) not in taken
+    ]
     if len(free_outside) >= cast.CATCH_TUCKS:  # outside the course first
         assert all((p[1] - start[1]) * outward > 0 for p in got)
 
@@ -659,6 +739,7 @@ def test_runs_split_the_ends_into_course_neighbours():
 
 # ---- generated designs ------------------------------------------------------------------------
 
+
 @st.composite
 def small_designs(draw):
     shape = draw(st.sampled_from(SHAPES))
@@ -666,10 +747,16 @@ def small_designs(draw):
     a, b = draw(st.integers(2, 9)), draw(st.integers(2, 9))
     b = min(b, 2 * a)
     a = min(a, 2 * b)
-    return design(shape, gauge, draw(st.sampled_from(CAST_ONS)),
-                  draw(st.sampled_from(CAST_OFFS)), draw(st.sampled_from(("kickback", "split"))),
-                  width=f"[0: {a}, 1: {b}]", length=draw(st.integers(1, 6)),
-                  shaper=draw(st.sampled_from(("uniform", "sides", "left", "right"))))
+    return design(
+        shape,
+        gauge,
+        draw(st.sampled_from(CAST_ONS)),
+        draw(st.sampled_from(CAST_OFFS)),
+        draw(st.sampled_from(("kickback", "split"))),
+        width=f"[0: {a}, 1: {b}]",
+        length=draw(st.integers(1, 6)),
+        shaper=draw(st.sampled_from(("uniform", "sides", "left", "right"))),
+    )
 
 
 def test_generated_designs_run_clean_everywhere():
@@ -683,8 +770,7 @@ def test_generated_designs_run_clean_everywhere():
         assert not [f for f in simulate(r.program) if f.is_error], src
         kinds = [o.kind for o in r.program.ops]
         assert kinds.count("inhook") == kinds.count("releasehook") == kinds.count("outhook")
-        stitched = {o.stitch for o in r.program.ops
-                    if o.kind in ("knit", "tuck", "split", "miss")}
+        stitched = {o.stitch for o in r.program.ops if o.kind in ("knit", "tuck", "split", "miss")}
         assert stitched >= set(range(r.graph.n_stitches))
         if len(texts) < 15:
             texts.append(write_knitout(r.program))
@@ -697,11 +783,14 @@ def test_generated_designs_run_clean_everywhere():
 def test_ending_stitches_whose_needles_a_later_slice_reuses_are_cast_off_first():
     # found by hypothesis: the schedule put the back half of the last round on needles the
     # front half's ending loops still held; those loops are now bound off before it
-    src = ("machine { gauge: half  cast_on: interlock  cast_off: pickup  increase: kickback }\n"
-           "tube s {  length: 2  width: [0: 3, 1: 4]  shaper: uniform }\nstart s.bottom\n")
+    src = (
+        "machine { gauge: half  cast_on: interlock  cast_off: pickup  increase: kickback }\n"
+        "tube s {  length: 2  width: [0: 3, 1: 4]  shaper: uniform }\nstart s.bottom\n"
+    )
     r = compile_source(src, "t.knit", until="machine")
     assert r.program is not None, r.diagnostics.render()
     assert not [f for f in simulate(r.program) if f.is_error]
     [report] = run_oracle_on_text([write_knitout(r.program)])
-    assert_clean(report, allow=["Long_Float_Warning"] if any(
-        d.code == "W803" for d in r.diagnostics) else [])
+    assert_clean(
+        report, allow=["Long_Float_Warning"] if any(d.code == "W803" for d in r.diagnostics) else []
+    )

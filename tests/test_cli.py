@@ -30,17 +30,19 @@ def _has_layer_fmt() -> bool:
     return True
 
 
-needs_fmt = pytest.mark.skipif(not _has_module_fmt(),
-                               reason="knitc.frontend.fmt.format_module does not exist yet")
+needs_fmt = pytest.mark.skipif(
+    not _has_module_fmt(), reason="knitc.frontend.fmt.format_module does not exist yet"
+)
 needs_layer_fmt = pytest.mark.skipif(
     not _has_layer_fmt(),
     reason="knitc.frontend.fmt.format_layer_stmt does not exist yet; "
-           "knitc.frontend.skeleton.to_json imports it, so --emit skeleton cannot run")
+    "knitc.frontend.skeleton.to_json imports it, so --emit skeleton cannot run",
+)
 
 GOOD = "param n = 2\ntube a { width: #n }\ntube b { width: #n }\na.top -> b.bottom\n"
-WARN = "tube a { width: 4 }\ntube b { width: 5 }\na.top -> b.bottom\n"   # W502
-BAD = "sheet a { length: 0 }\n"                                          # E313
-SYNTAX = "sheet a { length 3 }\n"                                       # E101
+WARN = "tube a { width: 4 }\ntube b { width: 5 }\na.top -> b.bottom\n"  # W502
+BAD = "sheet a { length: 0 }\n"  # E313
+SYNTAX = "sheet a { length 3 }\n"  # E101
 
 
 @pytest.fixture
@@ -49,6 +51,7 @@ def write(tmp_path):
         p = tmp_path / name
         p.write_text(text, encoding="utf-8")
         return str(p)
+
     return _write
 
 
@@ -59,6 +62,7 @@ def run(capsys, *argv):
 
 
 # ---- version and help --------------------------------------------------------------------------
+
 
 def test_version(capsys):
     code, out, err = run(capsys, "--version")
@@ -81,8 +85,17 @@ def test_subcommand_help(capsys):
     assert code == 0 and "--check" in out
 
 
-@pytest.mark.parametrize("argv", [[], ["--emit", "nonsense", "x.knit"], ["-W", "all", "x.knit"],
-                                  ["check"], ["fmt"], ["--bogus", "x.knit"]])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        [],
+        ["--emit", "nonsense", "x.knit"],
+        ["-W", "all", "x.knit"],
+        ["check"],
+        ["fmt"],
+        ["--bogus", "x.knit"],
+    ],
+)
 def test_usage_errors_exit_2(capsys, argv):
     code, _, err = run(capsys, *argv)
     assert code == 2
@@ -90,6 +103,7 @@ def test_usage_errors_exit_2(capsys, argv):
 
 
 # ---- check -------------------------------------------------------------------------------------
+
 
 def test_check_clean_file(capsys, write):
     code, out, err = run(capsys, "check", write(GOOD))
@@ -140,7 +154,7 @@ def test_quiet_still_shows_errors(capsys, write):
     code, _, err = run(capsys, "check", "-q", write(BAD))
     assert code == 1
     assert "error[E313]" in err
-    assert "knitc: 1 error" not in err        # no summary in quiet mode
+    assert "knitc: 1 error" not in err  # no summary in quiet mode
 
 
 def test_missing_input_file(capsys, tmp_path):
@@ -192,6 +206,7 @@ def test_define_reaches_emitted_ast_stage(capsys, write):
 
 # ---- --emit ------------------------------------------------------------------------------------
 
+
 def test_emit_ast_to_stdout(capsys, write):
     code, out, err = run(capsys, "--emit", "ast", write(GOOD))
     assert code == 0, err
@@ -222,16 +237,24 @@ def test_emit_skeleton_to_stdout(capsys, write):
     code, out, err = run(capsys, "--emit", "skeleton", write(GOOD))
     assert code == 0, err
     data = json.loads(out)
-    assert {"machine", "params", "nodes", "interfaces", "connections", "starts",
-            "components", "layers", "definitions"} == set(data)
+    assert {
+        "machine",
+        "params",
+        "nodes",
+        "interfaces",
+        "connections",
+        "starts",
+        "components",
+        "layers",
+        "definitions",
+    } == set(data)
     assert data["params"] == {"n": 2}
 
 
 @needs_layer_fmt
 def test_emit_skeleton_with_define_and_output(capsys, write, tmp_path):
     out_path = tmp_path / "skel.json"
-    code, out, _ = run(capsys, "-D", "n=5", "--emit", "skeleton", "-o", str(out_path),
-                       write(GOOD))
+    code, out, _ = run(capsys, "-D", "n=5", "--emit", "skeleton", "-o", str(out_path), write(GOOD))
     assert code == 0 and out == ""
     data = json.loads(out_path.read_text(encoding="utf-8"))
     assert data["params"] == {"n": 5}
@@ -241,8 +264,7 @@ def test_emit_skeleton_with_define_and_output(capsys, write, tmp_path):
 @needs_layer_fmt
 def test_emit_skeleton_is_deterministic(capsys, write):
     path = write(GOOD)
-    assert run(capsys, "--emit", "skeleton", path)[1] == run(capsys, "--emit", "skeleton",
-                                                             path)[1]
+    assert run(capsys, "--emit", "skeleton", path)[1] == run(capsys, "--emit", "skeleton", path)[1]
 
 
 @pytest.mark.parametrize("stage", ["ast", "skeleton"])
@@ -272,8 +294,7 @@ def test_werror_leaves_no_output_file(capsys, write, tmp_path):
     # Warnings only appear after resolution; for --emit ast the run stops at the AST.
     assert code == 0
     out_path.unlink()
-    code, _, _ = run(capsys, "-W", "error", "--emit", "skeleton", "-o", str(out_path),
-                     write(WARN))
+    code, _, _ = run(capsys, "-W", "error", "--emit", "skeleton", "-o", str(out_path), write(WARN))
     assert code == 1
     assert not out_path.exists()
 
@@ -304,6 +325,7 @@ def test_compile_to_knitout_writes_the_file(capsys, write, tmp_path):
 
 # ---- fmt ---------------------------------------------------------------------------------------
 
+
 @needs_fmt
 def test_fmt_check_canonical_and_not(capsys, write):
     from knitc.frontend.fmt import format_module
@@ -331,7 +353,7 @@ def test_fmt_prints_and_rewrites(capsys, write, tmp_path):
     code, out, _ = run(capsys, "fmt", path)
     assert code == 0
     assert out and out != messy
-    assert (tmp_path / "m.knit").read_text(encoding="utf-8") == messy   # unchanged
+    assert (tmp_path / "m.knit").read_text(encoding="utf-8") == messy  # unchanged
     code, _, _ = run(capsys, "fmt", "-i", path)
     assert code == 0
     assert (tmp_path / "m.knit").read_text(encoding="utf-8") == out
@@ -355,9 +377,11 @@ def test_fmt_check_and_in_place_are_exclusive(capsys, write):
 
 # ---- the installed entry point -----------------------------------------------------------------
 
+
 def test_module_entry_point_runs():
-    proc = subprocess.run([sys.executable, "-m", "knitc", "--version"], capture_output=True,
-                          text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "knitc", "--version"], capture_output=True, text=True, timeout=60
+    )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == f"knitc {knitc.__version__}"
 

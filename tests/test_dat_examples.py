@@ -19,7 +19,8 @@ from oracle import assert_clean, run_oracle_on_text
 
 ROOT = Path(__file__).resolve().parent.parent
 DESIGNS = sorted((ROOT / "examples").glob("*.knit")) + sorted(
-    (ROOT / "examples" / "knitskel").glob("*.knit"))
+    (ROOT / "examples" / "knitskel").glob("*.knit")
+)
 FIXTURES = ROOT / "tests" / "fixtures" / "dat"
 
 
@@ -77,8 +78,10 @@ def test_k2dat_reports_bad_knitout_at_its_line_and_writes_nothing(tmp_path, caps
 
 def test_k2dat_refuses_what_a_shima_cannot_knit(tmp_path, capsys):
     """More than two carriers in one set, and a carrier left in, are errors at the line."""
-    src = (";!knitout-2\n;;Machine: SWG091N2\n;;Gauge: 15\n;;Carriers: 1 2 3 4 5 6 7 8 9 10\n"
-           "in 1 2 3\nknit + f1 1 2 3\nout 1 2 3\n")
+    src = (
+        ";!knitout-2\n;;Machine: SWG091N2\n;;Gauge: 15\n;;Carriers: 1 2 3 4 5 6 7 8 9 10\n"
+        "in 1 2 3\nknit + f1 1 2 3\nout 1 2 3\n"
+    )
     k = tmp_path / "three.k"
     k.write_text(src, encoding="utf-8")
     assert main(["k2dat", str(k), "-o", str(tmp_path / "three.dat")]) == 1

@@ -59,7 +59,8 @@ def test_fixture_corpus_is_present() -> None:
 def test_palette_is_the_converters() -> None:
     assert len(PALETTE) == 768
     assert hashlib.sha256(PALETTE).hexdigest() == (
-        "49205708dfab261492ddb5cca5fba552fdb9494a4e742c87c1a365e4eb3631ca")
+        "49205708dfab261492ddb5cca5fba552fdb9494a4e742c87c1a365e4eb3631ca"
+    )
     for path in DATS:
         assert path.read_bytes()[0x200:0x500] == PALETTE
 
@@ -84,8 +85,14 @@ def test_fixture_fixed_rows(name: str) -> None:
     image = decode(data)
     table = rows(data)
     p, n = image.max_slot - image.min_slot + 1, len(image.passes)
-    fixed = {5: (MISS_F, RIGHT), 6: (KNIT_F, LEFT), 7: (KNIT_B, RIGHT),
-             n + 8: (KNIT_F, LEFT), n + 9: (KNIT_B, RIGHT), n + 10: (KNIT_FB, LEFT)}
+    fixed = {
+        5: (MISS_F, RIGHT),
+        6: (KNIT_F, LEFT),
+        7: (KNIT_B, RIGHT),
+        n + 8: (KNIT_F, LEFT),
+        n + 9: (KNIT_B, RIGHT),
+        n + 10: (KNIT_FB, LEFT),
+    }
     for y, (colour, direction) in fixed.items():
         row = table[y]
         assert row.slots == (STOP, *[colour] * p, STOP)
@@ -100,7 +107,7 @@ def test_fixture_fixed_rows(name: str) -> None:
     blank = [y for y in range(len(table)) if y not in fixed and not 8 <= y < 8 + n]
     for y in blank:
         assert table[y].direction == 0 and not any(table[y].right)
-    for pass_row in table[8:8 + n]:
+    for pass_row in table[8 : 8 + n]:
         assert pass_row.direction in (RIGHT, LEFT, NONE)
         used = [i for i, c in enumerate(pass_row.slots) if c]
         assert pass_row.slots[used[0]] == pass_row.slots[used[-1]] == STOP
@@ -161,19 +168,22 @@ def test_position_none_and_zero_are_the_same_bytes() -> None:
     assert decode(encode(small_image(position=None))).position == 0
 
 
-@pytest.mark.parametrize("change, message", [
-    (lambda im: im.passes[0].slots.update({7: KNIT_F}), "outside the image's slot range"),
-    (lambda im: im.passes[0].slots.update({2: STOP}), "not the stop mark"),
-    (lambda im: im.passes[0].slots.update({2: 0}), "1..255"),
-    (lambda im: im.passes[0].slots.update({2: 256}), "1..255"),
-    (lambda im: im.passes[0].right.__setitem__(4, 300), "R5 = 300"),
-    (lambda im: im.passes[0].left.append(0), "21 L option values"),
-    (lambda im: im.passes[0].slots.clear(), "uses no slot"),
-    (lambda im: setattr(im.passes[0], "direction", 2), "direction code 2"),
-    (lambda im: setattr(im, "position", 25600), "position code 25600"),
-    (lambda im: setattr(im, "max_slot", 0), "empty slot range"),
-    (lambda im: setattr(im, "max_slot", 70000), "does not fit a DAT"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda im: im.passes[0].slots.update({7: KNIT_F}), "outside the image's slot range"),
+        (lambda im: im.passes[0].slots.update({2: STOP}), "not the stop mark"),
+        (lambda im: im.passes[0].slots.update({2: 0}), "1..255"),
+        (lambda im: im.passes[0].slots.update({2: 256}), "1..255"),
+        (lambda im: im.passes[0].right.__setitem__(4, 300), "R5 = 300"),
+        (lambda im: im.passes[0].left.append(0), "21 L option values"),
+        (lambda im: im.passes[0].slots.clear(), "uses no slot"),
+        (lambda im: setattr(im.passes[0], "direction", 2), "direction code 2"),
+        (lambda im: setattr(im, "position", 25600), "position code 25600"),
+        (lambda im: setattr(im, "max_slot", 0), "empty slot range"),
+        (lambda im: setattr(im, "max_slot", 70000), "does not fit a DAT"),
+    ],
+)
 def test_encode_rejects_images_no_dat_can_hold(change, message) -> None:
     image = small_image()
     change(image)
@@ -193,13 +203,15 @@ def test_empty_program_has_only_fixed_rows() -> None:
 
 def test_long_runs_split_at_255() -> None:
     """A 710-pixel blank row is 255 + 255 + 200, each row encoded on its own."""
-    image = DatImage(passes=[DatPass(direction=LEFT, slots={600: KNIT_F})],
-                     min_slot=1, max_slot=600)
+    image = DatImage(
+        passes=[DatPass(direction=LEFT, slots={600: KNIT_F})], min_slot=1, max_slot=600
+    )
     data = encode(image)
     runs = runs_of(data)
     assert runs[:15].tolist() == [[0, 255], [0, 255], [0, 200]] * 5
-    assert decode(data, strict=True) == DatImage(passes=image.passes, min_slot=1,
-                                                 max_slot=600, position=0)
+    assert decode(data, strict=True) == DatImage(
+        passes=image.passes, min_slot=1, max_slot=600, position=0
+    )
 
 
 def test_rle_row_ending_in_a_different_pixel_and_exact_255_runs() -> None:
@@ -250,14 +262,17 @@ def test_converters_zero_run_after_an_exact_255_run() -> None:
     """The converter writes (c, 255), (c, 0) when a run of exactly 255 is followed by another
     colour (seen with knits on f1 and f257 only). The reader accepts it; the writer does not
     reproduce it."""
-    image = DatImage(passes=[DatPass(direction=RIGHT, slots={1: KNIT_F, 257: KNIT_F})],
-                     min_slot=1, max_slot=257)
+    image = DatImage(
+        passes=[DatPass(direction=RIGHT, slots={1: KNIT_F, 257: KNIT_F})], min_slot=1, max_slot=257
+    )
     data = encode(image)
     runs = runs_of(data).tolist()
     # the pass row's 255-pixel gap between the two knits
-    at = next(i for i in range(len(runs) - 1) if runs[i:i + 2] == [[0, 255], [KNIT_F, 1]])
-    converter_form = (data[:HEADER_SIZE]
-                      + np.array(runs[:at + 1] + [[0, 0]] + runs[at + 1:], np.uint8).tobytes())
+    at = next(i for i in range(len(runs) - 1) if runs[i : i + 2] == [[0, 255], [KNIT_F, 1]])
+    converter_form = (
+        data[:HEADER_SIZE]
+        + np.array(runs[: at + 1] + [[0, 0]] + runs[at + 1 :], np.uint8).tobytes()
+    )
     assert decode(converter_form) == decode(data)
     assert encode(decode(converter_form)) == data
     with pytest.raises(DatError, match="canonical"):
@@ -290,14 +305,26 @@ def images(draw, *, keep_numbering: bool = True) -> DatImage:
     min_slot = (position or 1) if keep_numbering else draw(st.integers(-50, 50))
     passes = []
     for _ in range(draw(st.integers(0, 6))):
-        slots = draw(st.dictionaries(st.integers(min_slot, min_slot + p - 1), SLOT_COLOURS,
-                                     min_size=1, max_size=p))
-        passes.append(DatPass(
-            direction=draw(st.sampled_from([RIGHT, LEFT, NONE])), slots=slots,
-            left=draw(st.lists(st.integers(0, 255), min_size=20, max_size=20)),
-            right=draw(st.lists(st.integers(0, 255), min_size=20, max_size=20))))
-    return DatImage(passes=passes, min_slot=min_slot, max_slot=min_slot + p - 1,
-                    position=position, carriage_left_at_end=draw(st.booleans()))
+        slots = draw(
+            st.dictionaries(
+                st.integers(min_slot, min_slot + p - 1), SLOT_COLOURS, min_size=1, max_size=p
+            )
+        )
+        passes.append(
+            DatPass(
+                direction=draw(st.sampled_from([RIGHT, LEFT, NONE])),
+                slots=slots,
+                left=draw(st.lists(st.integers(0, 255), min_size=20, max_size=20)),
+                right=draw(st.lists(st.integers(0, 255), min_size=20, max_size=20)),
+            )
+        )
+    return DatImage(
+        passes=passes,
+        min_slot=min_slot,
+        max_slot=min_slot + p - 1,
+        position=position,
+        carriage_left_at_end=draw(st.booleans()),
+    )
 
 
 @settings(max_examples=120, deadline=None)
@@ -318,13 +345,16 @@ def test_generated_images_round_trip_with_explicit_numbering(image: DatImage) ->
 # --- damaged input --------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("cut, message", [
-    (0, "shorter than the"),
-    (HEADER_SIZE - 1, "shorter than the"),
-    (-1, "odd number of bytes"),
-    (-2, "truncated DAT: the run-length data gives"),
-    (HEADER_SIZE, "truncated DAT: the run-length data gives 0 pixels"),
-])
+@pytest.mark.parametrize(
+    "cut, message",
+    [
+        (0, "shorter than the"),
+        (HEADER_SIZE - 1, "shorter than the"),
+        (-1, "odd number of bytes"),
+        (-2, "truncated DAT: the run-length data gives"),
+        (HEADER_SIZE, "truncated DAT: the run-length data gives 0 pixels"),
+    ],
+)
 def test_truncated_files(cut: int, message: str) -> None:
     with pytest.raises(DatError, match=message):
         decode(fixture("tuck_stitch")[:cut])
@@ -399,7 +429,7 @@ def test_damaged_bytes_raise_only_dat_errors(name: str, data) -> None:
         elif kind == "header" and len(raw) >= 8:
             raw[data.draw(st.integers(0, 7))] = data.draw(st.integers(0, 255))
         elif kind == "cut":
-            del raw[data.draw(st.integers(0, len(raw))):]
+            del raw[data.draw(st.integers(0, len(raw))) :]
         else:
             at = data.draw(st.integers(0, len(raw)))
             raw[at:at] = data.draw(st.binary(min_size=1, max_size=4))

@@ -41,8 +41,9 @@ def row(direction: int, slots: dict[int, int], **options: int) -> DatPass:
 
 def image(*passes: DatPass, position: int = 0) -> DatImage:
     slots = [s for p in passes for s in p.slots]
-    return DatImage(passes=list(passes), min_slot=min(slots), max_slot=max(slots),
-                    position=position)
+    return DatImage(
+        passes=list(passes), min_slot=min(slots), max_slot=max(slots), position=position
+    )
 
 
 def knitout(img: DatImage, **kw) -> list[str]:
@@ -60,8 +61,10 @@ HAND_MADE = image(
     row(L, {9: 16}, R3=255, R6=5, R15=90),  # hook release
     row(L, {9: 16}, R3=3, R5=2, R6=5),  # kick
     row(R, {10: 16}, R3=3, R6=5),  # kick
-    knit_row(L, range(1, 11)), knit_row(R, range(1, 11)),
-    knit_row(L, range(1, 11)), knit_row(R, range(1, 11)),
+    knit_row(L, range(1, 11)),
+    knit_row(R, range(1, 11)),
+    knit_row(L, range(1, 11)),
+    knit_row(R, range(1, 11)),
     row(N, {10: 20}, R5=1),
     row(N, {9: 30}, L2=1, R5=1),
     knit_row(L, range(1, 10)),
@@ -71,13 +74,23 @@ HAND_MADE = image(
 
 def test_the_research_hand_made_rows_read_as_the_knitout_that_made_them():
     ops = knitout(HAND_MADE)
-    stst = [f"knit {d} f{n} 3" for _ in range(2)
-            for d, ns in (("-", range(10, 0, -1)), ("+", range(1, 11))) for n in ns]
-    assert ops == (["inhook 3"] + [f"tuck - f{n} 3" for n in (10, 8, 6, 4, 2)]
-                   + [f"tuck + f{n} 3" for n in (1, 3, 5, 7, 9)] + ["releasehook 3"] + stst
-                   + ["xfer f10 b10", "rack -1", "xfer b10 f9", "rack 0"]
-                   + [f"knit - f{n} 3" for n in range(9, 0, -1)]
-                   + [f"knit + f{n} 3" for n in range(1, 10)] + ["outhook 3"])
+    stst = [
+        f"knit {d} f{n} 3"
+        for _ in range(2)
+        for d, ns in (("-", range(10, 0, -1)), ("+", range(1, 11)))
+        for n in ns
+    ]
+    assert ops == (
+        ["inhook 3"]
+        + [f"tuck - f{n} 3" for n in (10, 8, 6, 4, 2)]
+        + [f"tuck + f{n} 3" for n in (1, 3, 5, 7, 9)]
+        + ["releasehook 3"]
+        + stst
+        + ["xfer f10 b10", "rack -1", "xfer b10 f9", "rack 0"]
+        + [f"knit - f{n} 3" for n in range(9, 0, -1)]
+        + [f"knit + f{n} 3" for n in range(1, 10)]
+        + ["outhook 3"]
+    )
     prog = dat_to_program(HAND_MADE)
     assert verify(prog) == [] and prog.position == "Right"
     # the converter's kick, release and dummy rows come back from the writer
@@ -87,16 +100,33 @@ def test_the_research_hand_made_rows_read_as_the_knitout_that_made_them():
 
 def test_explicit_kicks_show_the_carrier_motion_as_misses():
     ops = knitout(HAND_MADE, explicit_kicks=True)
-    assert ops[:7] == ["inhook 3", "tuck - f10 3", "tuck - f8 3", "tuck - f6 3", "tuck - f4 3",
-                       "tuck - f2 3", "miss - f1 3"]
+    assert ops[:7] == [
+        "inhook 3",
+        "tuck - f10 3",
+        "tuck - f8 3",
+        "tuck - f6 3",
+        "tuck - f4 3",
+        "tuck - f2 3",
+        "miss - f1 3",
+    ]
     release = ops.index("releasehook 3")
-    assert ops[release + 1:release + 3] == ["miss - f9 3", "miss + f10 3"]
+    assert ops[release + 1 : release + 3] == ["miss - f9 3", "miss + f10 3"]
     assert len(ops) == len(knitout(HAND_MADE)) + 3
 
 
-@pytest.mark.parametrize("r,l2,l3,l4", [
-    (0, 0, 0, 10), (2, 1, 0, 11), (-1, 1, 0, 10), (0.25, 0, 1, 10), (-0.75, 1, 1, 10),
-    (1.25, 0, 1, 11), (1, 0, 0, 11), (-8, 8, 0, 10)])
+@pytest.mark.parametrize(
+    "r,l2,l3,l4",
+    [
+        (0, 0, 0, 10),
+        (2, 1, 0, 11),
+        (-1, 1, 0, 10),
+        (0.25, 0, 1, 10),
+        (-0.75, 1, 1, 10),
+        (1.25, 0, 1, 11),
+        (1, 0, 0, 11),
+        (-8, 8, 0, 10),
+    ],
+)
 def test_racking_from_the_option_lines(r, l2, l3, l4):
     assert racking_of(row(N, {1: 20}, L2=l2, L3=l3, L4=l4)) == r
 
@@ -123,11 +153,24 @@ def test_quarter_pitch_pairs_go_in_carriage_order():
         row(L, {6: 3, 5: 41}, R3=5, R6=5, L2=1, L3=1),
     )
     assert knitout(img) == [
-        "rack 0.25", "in 5",
-        "knit + f1 5", "knit + b1 5", "knit + f2 5", "tuck + b2 5", "tuck + f3 5",
-        "knit + b3 5", "tuck + f4 5", "tuck + b4 5", "knit + f5 5", "tuck + b6 5",
+        "rack 0.25",
+        "in 5",
+        "knit + f1 5",
+        "knit + b1 5",
+        "knit + f2 5",
+        "tuck + b2 5",
+        "tuck + f3 5",
+        "knit + b3 5",
+        "tuck + f4 5",
+        "tuck + b4 5",
+        "knit + f5 5",
+        "tuck + b6 5",
         "rack -0.75",  # back needle b(s - floor(R)) = b(s + 1)
-        "knit - b7 5", "knit - f6 5", "tuck - b6 5", "knit - f5 5"]
+        "knit - b7 5",
+        "knit - f6 5",
+        "tuck - b6 5",
+        "knit - f5 5",
+    ]
 
 
 def test_transfers_splits_and_sliders():
@@ -139,18 +182,32 @@ def test_transfers_splits_and_sliders():
         row(L, {6: 101, 5: 102}, R3=2, R6=5, R10=2, L12=10, L2=1),
     )
     assert knitout(img) == [
-        "xfer f3 b3", "xfer b4 f4",
-        "xfer f3 bs3", "xfer b4 fs4",
-        "xfer fs3 b3", "xfer bs4 f4",
-        "rack -1", "xfer b6 f5", "xfer f6 b7",
-        "in 2", "split - f6 b7 2", "split - b6 f5 2"]
+        "xfer f3 b3",
+        "xfer b4 f4",
+        "xfer f3 bs3",
+        "xfer b4 fs4",
+        "xfer fs3 b3",
+        "xfer bs4 f4",
+        "rack -1",
+        "xfer b6 f5",
+        "xfer f6 b7",
+        "in 2",
+        "split - f6 b7 2",
+        "split - b6 f5 2",
+    ]
 
 
 def test_splits_via_sliders_come_with_their_return_transfers():
     img = image(row(R, {5: 107, 8: 108}, R3=4, R6=5, R10=4, R11=0))
     ops = knitout(img)
-    assert ops == ["in 4", "split + f5 bs5 4", "split + b8 fs8 4", "rack 1", "xfer bs5 f6",
-                   "xfer fs8 b7"]
+    assert ops == [
+        "in 4",
+        "split + f5 bs5 4",
+        "split + b8 fs8 4",
+        "rack 1",
+        "xfer bs5 f6",
+        "xfer fs8 b7",
+    ]
     prog = dat_to_program(img)
     prog.rack(0)
     prog.knit(+1, "f9", 4)
@@ -164,8 +221,15 @@ def test_drops_and_amiss_have_no_carriers():
         row(L, {3: 11, 1: 12}, R3=0, R6=5, L12=20),
         row(R, {4: 3}, R3=255, R6=5, L3=1),
     )
-    assert knitout(img) == ["drop f1", "drop b2", "amiss f3", "amiss b1", "rack 0.25",
-                            "drop f4", "drop b4"]
+    assert knitout(img) == [
+        "drop f1",
+        "drop b2",
+        "amiss f3",
+        "amiss b1",
+        "rack 0.25",
+        "drop f4",
+        "drop b4",
+    ]
 
 
 def test_settings_pause_and_carriers_from_the_option_bars():
@@ -176,11 +240,22 @@ def test_settings_pause_and_carriers_from_the_option_bars():
         knit_row(L, (3, 2), R3=36, R6=85, R10=136),  # carriers 3 and 6 together, out
     )
     assert knitout(img) == [
-        "x-presser-mode on", "in 3", "knit - f3 3", "knit - f2 3",
-        "pause", "x-stitch-number 85", "x-speed-number 3", "x-presser-mode off",
-        "knit + f2 3", "knit + f3 3",
+        "x-presser-mode on",
+        "in 3",
+        "knit - f3 3",
+        "knit - f2 3",
+        "pause",
+        "x-stitch-number 85",
+        "x-speed-number 3",
+        "x-presser-mode off",
+        "knit + f2 3",
+        "knit + f3 3",
         "xfer f3 b3",
-        "x-speed-number 0", "knit - f3 3 6", "knit - f2 3 6", "out 3 6"]
+        "x-speed-number 0",
+        "knit - f3 3 6",
+        "knit - f2 3 6",
+        "out 3 6",
+    ]
 
 
 def test_dat_read_errors_name_the_row_and_slot():
@@ -198,14 +273,29 @@ def test_dat_read_errors_name_the_row_and_slot():
         dat_to_program(image(row(N, {2: 20}, L3=1, R5=1)))
 
 
-@pytest.mark.parametrize("position,min_slot,expected", [
-    (0, 1, ("Right", None)), (1, 1, ("Left", None)), (21, 21, ("Keep", None)),
-    (65, 1, ("Center", 140)), (265, 1, ("Center", None)), (600, 600, ("Keep", 609))])
+@pytest.mark.parametrize(
+    "position,min_slot,expected",
+    [
+        (0, 1, ("Right", None)),
+        (1, 1, ("Left", None)),
+        (21, 21, ("Keep", None)),
+        (65, 1, ("Center", 140)),
+        (265, 1, ("Center", None)),
+        (600, 600, ("Keep", 609)),
+    ],
+)
 def test_placement_from_the_position_code(position, min_slot, expected):
     needles = range(min_slot, min_slot + 10)
-    img = DatImage(passes=[knit_row(R, needles, R10=3), knit_row(L, needles[::-1]),
-                           knit_row(R, needles, R10=103)],
-                   min_slot=min_slot, max_slot=min_slot + 9, position=position)
+    img = DatImage(
+        passes=[
+            knit_row(R, needles, R10=3),
+            knit_row(L, needles[::-1]),
+            knit_row(R, needles, R10=103),
+        ],
+        min_slot=min_slot,
+        max_slot=min_slot + 9,
+        position=position,
+    )
     prog = dat_to_program(img)
     assert (prog.position, prog.width) == expected
     assert to_dat(prog).position == position
@@ -230,8 +320,11 @@ def test_the_fixture_knitout_and_its_dat_read_to_the_same_needle_work():
     def needle_ops(prog):
         ops = [o for o in prog.ops if o.kind in work]
         low = min(o.needle.index for o in ops)  # the DAT places the design on the bed
-        return Counter((o.kind, o.needle.shifted(-low), o.needle2 and o.needle2.shifted(-low),
-                        o.carriers) for o in ops)
+        return Counter(
+            (o.kind, o.needle.shifted(-low), o.needle2 and o.needle2.shifted(-low), o.carriers)
+            for o in ops
+        )
+
     assert needle_ops(read) == needle_ops(source)
 
 

@@ -55,13 +55,20 @@ def table(image: DatImage) -> list[tuple[int, dict[int, int], dict[str, int]]]:
 # --- invariants -----------------------------------------------------------------------------
 
 _CODES = {  # (kind, front?) -> colours a pass may show in the op's column
-    ("knit", True): {51, 3, 41}, ("knit", False): {52, 3, 42},
-    ("tuck", True): {11, 42, 88}, ("tuck", False): {12, 41, 88},
-    ("miss", True): {216}, ("miss", False): {217},
-    ("drop", True): {51}, ("drop", False): {52},
-    ("amiss", True): {11}, ("amiss", False): {12},
-    ("xfer", True): {20}, ("xfer", False): {30},
-    ("split", True): {101}, ("split", False): {102},
+    ("knit", True): {51, 3, 41},
+    ("knit", False): {52, 3, 42},
+    ("tuck", True): {11, 42, 88},
+    ("tuck", False): {12, 41, 88},
+    ("miss", True): {216},
+    ("miss", False): {217},
+    ("drop", True): {51},
+    ("drop", False): {52},
+    ("amiss", True): {11},
+    ("amiss", False): {12},
+    ("xfer", True): {20},
+    ("xfer", False): {30},
+    ("split", True): {101},
+    ("split", False): {102},
 }
 _NEEDLE_KINDS = {"knit", "tuck", "miss", "drop", "amiss", "xfer", "split"}
 
@@ -90,9 +97,12 @@ def check_passes(prog: MachineProgram, image: DatImage) -> None:
         want_dir = {1: RIGHT, -1: LEFT}.get(op.dir, NONE)
         while at < len(passes):
             p = passes[at]
-            if (p.slots.get(slot) in codes and p.right[2] == r3
-                    and (op.kind in ("drop", "amiss") or p.direction == want_dir)
-                    and (at, slot, front) not in claimed):
+            if (
+                p.slots.get(slot) in codes
+                and p.right[2] == r3
+                and (op.kind in ("drop", "amiss") or p.direction == want_dir)
+                and (at, slot, front) not in claimed
+            ):
                 break
             at += 1
         else:
@@ -172,7 +182,10 @@ def test_cast_on_release_and_decrease_as_the_converter_writes_them() -> None:
         (LEFT, {9: 16}, {"R3": 255, "R6": 5, "R15": 90}),
         (LEFT, {9: 16}, {**knit, "R5": 2}),
         (RIGHT, {10: 16}, knit),
-        (LEFT, row, knit), (RIGHT, row, knit), (LEFT, row, knit), (RIGHT, row, knit),
+        (LEFT, row, knit),
+        (RIGHT, row, knit),
+        (LEFT, row, knit),
+        (RIGHT, row, knit),
         (NONE, {10: 20}, {"R5": 1}),
         (NONE, {9: 30}, {"L2": 1, "R5": 1}),
         (LEFT, {n: 51 for n in range(1, 10)}, knit),
@@ -223,8 +236,10 @@ def test_release_after_a_pass_in_its_direction_gets_a_dummy_pass() -> None:
     prog.releasehook(2)
     prog.outhook(2)
     got = table(to_dat(prog))
-    assert got[1:3] == [(RIGHT, {1: 16}, {"R3": 255, "R6": 5}),
-                        (LEFT, {1: 16}, {"R3": 255, "R6": 5, "R15": 90})]
+    assert got[1:3] == [
+        (RIGHT, {1: 16}, {"R3": 255, "R6": 5}),
+        (LEFT, {1: 16}, {"R3": 255, "R6": 5, "R15": 90}),
+    ]
 
 
 def test_drops_and_amiss_run_away_from_the_carriage() -> None:
@@ -233,13 +248,15 @@ def test_drops_and_amiss_run_away_from_the_carriage() -> None:
     prog.knit(+1, "f1", 1)
     prog.knit(+1, "f2", 1)
     prog.out(1)
-    prog.drop("f1")   # carriage on the right after the rightward pass: drop runs left
+    prog.drop("f1")  # carriage on the right after the rightward pass: drop runs left
     prog.amiss("b2")  # then right again; an a-miss has no carriers and L12 = 20
     prog.drop("f2")
     got = table(to_dat(prog))
-    assert got[-3:] == [(LEFT, {1: 51}, {"R3": 255, "R6": 5}),
-                       (RIGHT, {2: 12}, {"L12": 20, "R6": 5}),
-                       (LEFT, {2: 51}, {"R3": 255, "R6": 5})]
+    assert got[-3:] == [
+        (LEFT, {1: 51}, {"R3": 255, "R6": 5}),
+        (RIGHT, {2: 12}, {"L12": 20, "R6": 5}),
+        (LEFT, {2: 51}, {"R3": 255, "R6": 5}),
+    ]
 
 
 def test_carriage_move_and_carriage_side_at_the_end() -> None:
@@ -250,21 +267,34 @@ def test_carriage_move_and_carriage_side_at_the_end() -> None:
     prog.in_(2)
     prog.pause()
     prog.knit(-1, "f3", 2)  # leftward again from the left: carriage move (R5 = 2), pause
-    prog.out(2)             # rightward from the left: no move
-    prog.out(1)             # rightward again from the right: carriage move
+    prog.out(2)  # rightward from the left: no move
+    prog.out(1)  # rightward again from the right: carriage move
     image = to_dat(prog)
     got = table(image)
     assert [(g[0], g[2].get("R5", 0), g[2].get("L7", 0)) for g in got] == [
-        (LEFT, 0, 0), (LEFT, 2, 20), (RIGHT, 0, 0), (RIGHT, 2, 0)]
+        (LEFT, 0, 0),
+        (LEFT, 2, 20),
+        (RIGHT, 0, 0),
+        (RIGHT, 2, 0),
+    ]
     assert not image.carriage_left_at_end
     prog.drop("f1")  # the drop then runs left: the carriage ends on the left
     assert to_dat(prog).carriage_left_at_end
 
 
-@pytest.mark.parametrize("racking, left", [
-    (0, {}), (2, {"L4": 11, "L2": 1}), (1, {"L4": 11}), (-1, {"L2": 1}), (-3, {"L2": 3}),
-    (0.25, {"L3": 1}), (-0.75, {"L2": 1, "L3": 1}), (1.25, {"L4": 11, "L3": 1}),
-])
+@pytest.mark.parametrize(
+    "racking, left",
+    [
+        (0, {}),
+        (2, {"L4": 11, "L2": 1}),
+        (1, {"L4": 11}),
+        (-1, {"L2": 1}),
+        (-3, {"L2": 3}),
+        (0.25, {"L3": 1}),
+        (-0.75, {"L2": 1, "L3": 1}),
+        (1.25, {"L4": 11, "L3": 1}),
+    ],
+)
 def test_racking_options(racking: float, left: dict[str, int]) -> None:
     prog = program()
     prog.rack(racking)
@@ -309,7 +339,12 @@ def test_presser_on_splits_mixed_passes_and_auto_skips_them() -> None:
     prog.out(1)
     got = table(to_dat(prog))
     assert [(g[1], g[2].get("R11", 0)) for g in got] == [  # a kick has no presser mode
-        ({1: 51}, 101), ({1: 16}, 0), ({2: 52}, 101), ({2: 52, 1: 51}, 0), ({1: 51}, 101)]
+        ({1: 51}, 101),
+        ({1: 16}, 0),
+        ({2: 52}, 101),
+        ({2: 52, 1: 51}, 0),
+        ({1: 51}, 101),
+    ]
 
 
 def test_stitch_and_speed_numbers() -> None:
@@ -326,7 +361,12 @@ def test_stitch_and_speed_numbers() -> None:
     prog.out(1)
     got = table(to_dat(prog))
     assert [(g[2].get("R6", 0), g[2].get("L5", 0), g[2].get("L6", 0)) for g in got] == [
-        (20, 13, 13), (85, 13, 13), (0, 13, 13), (0, 0, 0), (85, 0, 0)]
+        (20, 13, 13),
+        (85, 13, 13),
+        (0, 13, 13),
+        (0, 0, 0),
+        (85, 0, 0),
+    ]
 
 
 def test_splits_and_slider_transfers() -> None:
@@ -335,8 +375,8 @@ def test_splits_and_slider_transfers() -> None:
     prog.knit(+1, "f1", 4)
     prog.knit(+1, "f2", 4)
     prog.split(+1, "f2", "b2", 4)
-    prog.xfer("f1", "bs1")   # to the sliders: L13 = 1
-    prog.xfer("bs1", "f1")   # from the sliders: L13 = 3
+    prog.xfer("f1", "bs1")  # to the sliders: L13 = 1
+    prog.xfer("bs1", "f1")  # from the sliders: L13 = 3
     prog.out(4)
     got = table(to_dat(prog))
     assert got[0][2]["R5"] == 2  # rightward first pass: the carriage starts on the right
@@ -346,8 +386,10 @@ def test_splits_and_slider_transfers() -> None:
     assert got[4] == (NONE, {1: 30}, {"L13": 3, "R5": 1})
 
 
-@pytest.mark.parametrize("back, delta, code", [
-    (False, 1, 107), (False, -2, 126), (False, 4, 147), (True, 1, 108), (True, -4, 149)])
+@pytest.mark.parametrize(
+    "back, delta, code",
+    [(False, 1, 107), (False, -2, 126), (False, 4, 147), (True, 1, 108), (True, -4, 149)],
+)
 def test_splits_via_sliders_take_the_code_of_their_return_racking(back, delta, code) -> None:
     prog = program()
     prog.in_(2)
@@ -386,7 +428,13 @@ def test_position_and_width() -> None:
 
 def test_carrier_codes() -> None:
     assert [carrier_code(cs) for cs in [(3,), (10,), (3, 6), (6, 3), (1, 10), (3, 10)]] == [
-        3, 10, 36, 63, 110, 30]
+        3,
+        10,
+        36,
+        63,
+        110,
+        30,
+    ]
     # deliberate difference: the converter writes 13 for (10, 3), the code of (1, 3)
     assert carrier_code((10, 3)) == 103
 
@@ -423,16 +471,38 @@ REFUSALS = [
     (_with(Op("in", carriers=(11,))), 2, "1..10"),
     (_with(Op("in", carriers=(1,))), 2, "already in action"),
     (_with(Op("knit", 1, F2, carriers=(2,))), 2, "not in action"),
-    (_with(Op("in", carriers=(2,)), Op("in", carriers=(3,)),
-           Op("knit", 1, F2, carriers=(2, 3))), 4, "exactly"),
-    (_with(Op("inhook", carriers=(2,)), Op("knit", 1, F2, carriers=(2,)),
-           Op("inhook", carriers=(3,)), Op("knit", 1, Needle("f", 3), carriers=(3,))),
-     5, "hook"),
+    (
+        _with(Op("in", carriers=(2,)), Op("in", carriers=(3,)), Op("knit", 1, F2, carriers=(2, 3))),
+        4,
+        "exactly",
+    ),
+    (
+        _with(
+            Op("inhook", carriers=(2,)),
+            Op("knit", 1, F2, carriers=(2,)),
+            Op("inhook", carriers=(3,)),
+            Op("knit", 1, Needle("f", 3), carriers=(3,)),
+        ),
+        5,
+        "hook",
+    ),
     (_with(Op("releasehook", carriers=(1,))), 2, "holds no yarn"),
-    (_with(Op("inhook", carriers=(2,)), Op("knit", 1, F2, carriers=(2,)),
-           Op("out", carriers=(2,))), 4, "releasehook first"),
-    (_with(Op("inhook", carriers=(2,)), Op("knit", 1, F2, carriers=(2,)),
-           Op("outhook", carriers=(1,))), 4, "hook holds"),
+    (
+        _with(
+            Op("inhook", carriers=(2,)), Op("knit", 1, F2, carriers=(2,)), Op("out", carriers=(2,))
+        ),
+        4,
+        "releasehook first",
+    ),
+    (
+        _with(
+            Op("inhook", carriers=(2,)),
+            Op("knit", 1, F2, carriers=(2,)),
+            Op("outhook", carriers=(1,)),
+        ),
+        4,
+        "hook holds",
+    ),
     (_with(Op("in", carriers=(2,)), Op("out", carriers=(2,))), 3, "not made a stitch"),
     (_with(Op("miss", 1, F2)), 2, "miss needs carriers"),
     (_with(Op("drop", needle=F1, carriers=(1,))), 2, "no carriers"),
@@ -442,10 +512,20 @@ REFUSALS = [
     (_with(Op("split", 1, Needle("bs", 1), F1, carriers=(1,))), 2, "from a slider"),
     (_with(Op("knit", 1, Needle("fs", 2), carriers=(1,))), 2, "slider"),
     (_with(Op("rack", value=0.25), Op("xfer", needle=F1, needle2=B1)), 3, "not aligned"),
-    (_with(Op("split", 1, F1, Needle("bs", 1), carriers=(1,)), Op("knit", 1, F2, carriers=(1,))),
-     3, "wait for their return"),
-    (_with(Op("split", 1, F1, Needle("bs", 1), carriers=(1,)), Op("rack", value=3),
-           Op("xfer", needle=Needle("bs", 1), needle2=Needle("f", 4))), 2, "differ by 1, 2 or 4"),
+    (
+        _with(Op("split", 1, F1, Needle("bs", 1), carriers=(1,)), Op("knit", 1, F2, carriers=(1,))),
+        3,
+        "wait for their return",
+    ),
+    (
+        _with(
+            Op("split", 1, F1, Needle("bs", 1), carriers=(1,)),
+            Op("rack", value=3),
+            Op("xfer", needle=Needle("bs", 1), needle2=Needle("f", 4)),
+        ),
+        2,
+        "differ by 1, 2 or 4",
+    ),
     (_with(Op("stitch", value=(10, 16))), 2, "stitch table"),
     (_with(Op("stitch_number", value=256)), 2, "at most 255"),
     (_with(Op("speed", value=246)), 2, "at most 245"),
@@ -453,8 +533,7 @@ REFUSALS = [
 ]
 
 
-@pytest.mark.parametrize("prog, index, words", REFUSALS,
-                         ids=[w for _, _, w in REFUSALS])
+@pytest.mark.parametrize("prog, index, words", REFUSALS, ids=[w for _, _, w in REFUSALS])
 def test_refusals_name_the_op(prog: MachineProgram, index: int, words: str) -> None:
     with pytest.raises(DatWriteError, match=words) as info:
         to_dat(prog)
@@ -537,11 +616,18 @@ def programs(draw) -> MachineProgram:
                 getattr(prog, kind)(d, f"{draw(st.sampled_from('ffb'))}{n}", cs)
 
     for step in range(draw(st.integers(1, 14))):
-        action = "in" if step == 0 else draw(st.sampled_from(
-            ["in", "row", "row", "row", "out", "release", "rack", "xfer", "drop", "setting"]))
+        action = (
+            "in"
+            if step == 0
+            else draw(
+                st.sampled_from(
+                    ["in", "row", "row", "row", "out", "release", "rack", "xfer", "drop", "setting"]
+                )
+            )
+        )
         if action == "in" and len(active) < 3:
             free = [c for c in range(1, 7) if c not in active]
-            cs = tuple(draw(st.permutations(free))[:draw(st.integers(1, 2))])
+            cs = tuple(draw(st.permutations(free))[: draw(st.integers(1, 2))])
             if hook is None and draw(st.booleans()):
                 prog.inhook(cs)
                 hook = cs
@@ -571,17 +657,30 @@ def programs(draw) -> MachineProgram:
             r = int(racking)
             for _ in range(draw(st.integers(1, 4))):
                 a = draw(st.integers(-3, 12))
-                pair = draw(st.sampled_from([(f"f{a}", f"b{a - r}"), (f"b{a}", f"f{a + r}"),
-                                             (f"f{a}", f"bs{a - r}"), (f"bs{a}", f"f{a + r}")]))
+                pair = draw(
+                    st.sampled_from(
+                        [
+                            (f"f{a}", f"b{a - r}"),
+                            (f"b{a}", f"f{a + r}"),
+                            (f"f{a}", f"bs{a - r}"),
+                            (f"bs{a}", f"f{a + r}"),
+                        ]
+                    )
+                )
                 if active and draw(st.integers(0, 4)) == 0 and "s" not in pair[0] + pair[1]:
-                    prog.split(draw(st.sampled_from((1, -1))), pair[0], pair[1],
-                               (draw(st.sampled_from(active)),))
+                    prog.split(
+                        draw(st.sampled_from((1, -1))),
+                        pair[0],
+                        pair[1],
+                        (draw(st.sampled_from(active)),),
+                    )
                 else:
                     prog.xfer(*pair)
         elif action == "drop":
             a = draw(st.integers(-3, 12))
             getattr(prog, draw(st.sampled_from(["drop", "amiss"])))(
-                f"{draw(st.sampled_from('fb'))}{a}")
+                f"{draw(st.sampled_from('fb'))}{a}"
+            )
         elif action == "setting":
             setting = draw(st.sampled_from(["stitch", "speed", "presser", "pause"]))
             if setting == "stitch":

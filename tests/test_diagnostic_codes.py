@@ -16,34 +16,34 @@ SHOWN = re.compile(r"(?:error|warning)\[([EW]\d{3})\]")
 
 WITHOUT_GOLDEN_CASE: dict[str, str] = {
     "E000": "not a diagnostic: the resolver's `_Silent` marker for an evaluation that failed "
-            "on an error already reported, never printed (golden 110_param_cycle and "
-            "112_param_self_reference go through it and show each mistake once)",
+    "on an error already reported, never printed (golden 110_param_cycle and "
+    "112_param_self_reference go through it and show each mistake once)",
     "E317": "the resolver reports an assignment to a context name (`needle = ...`) as E222 "
-            "before any action runs, so the interpreter's own check cannot fire; "
-            "tests/test_interp.py::test_constants_are_readable_not_assignable",
+    "before any action runs, so the interpreter's own check cannot fire; "
+    "tests/test_interp.py::test_constants_are_readable_not_assignable",
     "E532": "defensive: a joint's short rows are contiguous, so the walk from where the yarn "
-            "arrives always reaches an end of the first row; no design found reaches it "
-            "(tests/test_props_shape.py filters it, no unit test triggers it)",
+    "arrives always reaches an end of the first row; no design found reaches it "
+    "(tests/test_props_shape.py filters it, no unit test triggers it)",
     # knitc's simulation of its own machine program (codegen/simulate.py) runs only on what
     # code generation made, which is clean by construction; `k2dat` does not simulate.
     "E801": "simulator, only a code-generation bug: tests/test_simulate.py::test_misaligned_xfer",
     "E802": "simulator, only a code-generation bug: tests/test_simulate.py::test_carrier_not_in",
     "E803": "simulator, only a code-generation bug: "
-            "tests/test_simulate.py::test_loops_and_carriers_left",
+    "tests/test_simulate.py::test_loops_and_carriers_left",
     "E804": "simulator, only a code-generation bug: "
-            "tests/test_simulate.py::test_loops_and_carriers_left",
+    "tests/test_simulate.py::test_loops_and_carriers_left",
     "E805": "simulator, only a code-generation bug: tests/test_simulate.py::test_hook_rules",
     "E806": "simulator, only a code-generation bug (E601/E722 stop designs first): "
-            "tests/test_simulate.py::test_needle_range_and_sliders",
+    "tests/test_simulate.py::test_needle_range_and_sliders",
     "E807": "simulator, only a code-generation bug (E721/E723 stop actions first): "
-            "tests/test_simulate.py::test_racking",
+    "tests/test_simulate.py::test_racking",
     "E808": "simulator, only a code-generation bug: "
-            "tests/test_simulate.py::test_needle_range_and_sliders",
+    "tests/test_simulate.py::test_needle_range_and_sliders",
     "E809": "simulator, only a code-generation bug: tests/test_simulate.py::test_carrier_state",
     "E810": "simulator, a malformed op (the machine verifier fails first, an internal error): "
-            "tests/test_simulate.py::test_malformed_ops_are_reported_and_skipped",
+    "tests/test_simulate.py::test_malformed_ops_are_reported_and_skipped",
     "W802": "simulator: code generation (actions too) makes a knit on an empty needle a tuck; "
-            "tests/test_simulate.py::test_knit_on_empty",
+    "tests/test_simulate.py::test_knit_on_empty",
 }
 """Codes no input can produce through the CLI, each with the reason (and where it is tested
 instead)."""

@@ -71,6 +71,7 @@ def table_rows(lines: list[str]) -> list[list[str]]:
 
 # ---- diagnostic codes -----------------------------------------------------------------------
 
+
 def compiler_codes() -> set[str]:
     codes: set[str] = set()
     for path in sorted(COMPILER.rglob("*.py")):
@@ -101,7 +102,8 @@ def test_the_diagnostic_table_lists_every_code_of_the_compiler():
     assert not missing and not stale, (
         "docs/language.md's diagnostic table and the compiler's codes differ:\n"
         f"  in compiler/knitc but not in the table: {', '.join(missing) or 'none'}\n"
-        f"  in the table but not in compiler/knitc: {', '.join(stale) or 'none'}")
+        f"  in the table but not in compiler/knitc: {', '.join(stale) or 'none'}"
+    )
 
 
 def test_each_code_is_listed_once_in_order_with_its_severity_and_a_meaning():
@@ -119,6 +121,7 @@ def test_each_code_is_listed_once_in_order_with_its_severity_and_a_meaning():
 
 
 # ---- property tables ------------------------------------------------------------------------
+
 
 def _number(x: float) -> str:
     return str(int(x)) if float(x).is_integer() else str(x)
@@ -147,7 +150,8 @@ def documented_properties() -> dict[str, dict[str, list[str]]]:
             continue
         assert heading in PROPERTY_TABLES, (
             f"a property table under `{heading}`, which documents none of knitc.frontend.skeleton's "
-            f"tables (known headings: {', '.join(PROPERTY_TABLES)})")
+            f"tables (known headings: {', '.join(PROPERTY_TABLES)})"
+        )
         assert heading not in out, f"two sections `{heading}`"
         assert header[0].replace(" ", "") == "|property|type|default|values|meaning|", header[0]
         rows: dict[str, list[str]] = {}
@@ -175,21 +179,25 @@ def test_the_properties_of_each_kind_are_documented_with_default_choices_and_ran
     assert not missing and not extra, (
         f"{heading}: the docs and knitc.frontend.skeleton differ:\n"
         f"  not documented: {', '.join(missing) or 'none'}\n"
-        f"  documented but not a property: {', '.join(extra) or 'none'}")
+        f"  documented but not a property: {', '.join(extra) or 'none'}"
+    )
     for name, spec in spec_table.items():
         _, _type, default, values, meaning = rows[name]
         assert default == shown_default(name, spec), (
-            f"{heading} `{name}`: default {default!r}, expected {shown_default(name, spec)!r}")
+            f"{heading} `{name}`: default {default!r}, expected {shown_default(name, spec)!r}"
+        )
         for choice in spec.choices:
             assert f"`{choice}`" in values, f"{heading} `{name}`: choice `{choice}` missing"
         for bound in (spec.min, spec.max):
             if bound is not None:
                 assert f"`{_number(bound)}`" in values, (
-                    f"{heading} `{name}`: bound `{_number(bound)}` missing from {values!r}")
+                    f"{heading} `{name}`: bound `{_number(bound)}` missing from {values!r}"
+                )
         assert meaning, f"{heading} `{name}` has no meaning"
 
 
 # ---- examples -------------------------------------------------------------------------------
+
 
 def fenced_blocks(text: str) -> list[tuple[int, str, str]]:
     """(line, info string, body) of every fenced code block."""
@@ -213,8 +221,9 @@ def fenced_blocks(text: str) -> list[tuple[int, str, str]]:
 
 def test_every_code_block_says_its_language():
     bare = [line for line, info, _ in fenced_blocks(doc_text()) if not info]
-    assert not bare, ("fence these blocks with ```knit (checked), ```knit fragment or "
-                      f"```text: lines {bare}")
+    assert not bare, (
+        f"fence these blocks with ```knit (checked), ```knit fragment or ```text: lines {bare}"
+    )
 
 
 EXAMPLES = [(line, body) for line, info, body in fenced_blocks(doc_text()) if info == "knit"]
@@ -228,5 +237,8 @@ def test_there_are_examples():
 def test_every_knit_example_compiles(line, body):
     result = compile_source(body, "doc.knit", until="machine")
     if result.diagnostics.has_errors:
-        pytest.fail(f"the example at docs/language.md:{line} does not compile:\n"
-                    + result.diagnostics.render(), pytrace=False)
+        pytest.fail(
+            f"the example at docs/language.md:{line} does not compile:\n"
+            + result.diagnostics.render(),
+            pytrace=False,
+        )

@@ -29,8 +29,10 @@ FR1, FL1 = INSTRUCTIONS.index("FR1"), INSTRUCTIONS.index("FL1")
 
 
 def sheet(width, length, body, extra=""):
-    return (f"{extra}sheet s {{ width: {width}  length: {length} }}\nstart s.bottom\n"
-            f"s.top open\npattern s {{\n{body}\n}}\n")
+    return (
+        f"{extra}sheet s {{ width: {width}  length: {length} }}\nstart s.bottom\n"
+        f"s.top open\npattern s {{\n{body}\n}}\n"
+    )
 
 
 def grid_of(g, node="s"):
@@ -62,8 +64,7 @@ def test_draw_is_centred_in_the_selection_and_read_like_a_chart():
 
 def test_draw_centres_each_course_of_a_shaped_piece():
     # on a piece narrowing evenly, every course is centred on its own wales
-    g, d = patterned(sheet("[0: 15, 1: 9]", 9, '  draw """\n P\n P\n P\n P\n P\n """'),
-                     "t.knit")
+    g, d = patterned(sheet("[0: 15, 1: 9]", 9, '  draw """\n P\n P\n P\n P\n P\n """'), "t.knit")
     assert not list(d)
     c = coords(g)
     p = np.nonzero(g.instr == P)[0]
@@ -73,17 +74,18 @@ def test_draw_centres_each_course_of_a_shaped_piece():
 
 @pytest.mark.parametrize("length", [20, 41])
 def test_a_drawing_follows_a_longer_sleeve(length):
-    src = ("param len = 20\ntube sleeve { width: 10  length: #len }\nstart sleeve.bottom\n"
-           "sleeve.top open\npattern sleeve {\n"
-           f"  draw {DIAMOND} where side(front) and courses(0.25:0.75)\n"
-           '  tile """\n P K K\n """ where side(back) and courses(0.5:end)\n}\n')
+    src = (
+        "param len = 20\ntube sleeve { width: 10  length: #len }\nstart sleeve.bottom\n"
+        "sleeve.top open\npattern sleeve {\n"
+        f"  draw {DIAMOND} where side(front) and courses(0.25:0.75)\n"
+        '  tile """\n P K K\n """ where side(back) and courses(0.5:end)\n}\n'
+    )
     g, d = patterned(src, "t.knit", defines=(f"len={length}",))
     assert not list(d)
     got = grid_of(g, "sleeve")
     lo, hi = int(np.ceil(0.25 * (length - 1))), int(np.floor(0.75 * (length - 1)))
     r0 = lo + (hi - lo + 1 - 3) // 2  # centred rows; front wales 0..9, cols (10 - 3) // 2
-    want = {(r0, 4): P, (r0, 5): M, (r0 + 1, 3): P, (r0 + 1, 4): T, (r0 + 1, 5): P,
-            (r0 + 2, 4): P}
+    want = {(r0, 4): P, (r0, 5): M, (r0 + 1, 3): P, (r0 + 1, 4): T, (r0 + 1, 5): P, (r0 + 2, 4): P}
     t0 = int(np.ceil(0.5 * (length - 1)))
     for (cr, w), v in got.items():
         if w < 10:
@@ -94,8 +96,9 @@ def test_a_drawing_follows_a_longer_sleeve(length):
 
 @pytest.mark.parametrize("width", [11, 16])
 def test_tile_starts_at_the_selection_corner(width):
-    src = sheet("#w", 12, '  tile """\n K T\n P M\n P K\n """ where select(5:end, 3:end)',
-                "param w = 8\n")
+    src = sheet(
+        "#w", 12, '  tile """\n K T\n P M\n P K\n """ where select(5:end, 3:end)', "param w = 8\n"
+    )
     g, d = patterned(src, "t.knit", defines=(f"w={width}",))
     assert not list(d)
     chart_ = [[K, T], [P, M], [P, K]]
@@ -107,8 +110,9 @@ def test_tile_starts_at_the_selection_corner(width):
 
 
 def test_stretch_scales_onto_the_bounding_box():
-    g, d = patterned(sheet(12, 10, '  stretch """\n P K\n K T\n """ where select(2:7, 4:11)'),
-                     "t.knit")
+    g, d = patterned(
+        sheet(12, 10, '  stretch """\n P K\n K T\n """ where select(2:7, 4:11)'), "t.knit"
+    )
     assert not list(d)
     for (cr, w), v in grid_of(g).items():
         if not (2 <= cr <= 7 and 4 <= w <= 11):
@@ -121,7 +125,7 @@ def test_stretch_scales_onto_the_bounding_box():
 
 
 def test_a_drawing_inside_a_pattern_definition_is_placed_on_the_callers_selection():
-    body = ('  apply motif() where select(4:9, 2:7)\n')
+    body = "  apply motif() where select(4:9, 2:7)\n"
     defs = 'pattern motif() {\n  set P\n  tile """\n K . K\n """\n}\n'
     g, d = patterned(sheet(12, 12, body, defs), "t.knit")
     assert not list(d)
@@ -149,8 +153,13 @@ def test_wale_grid_keeps_a_motif_on_its_wales_through_shaping():
     g, d = patterned(src, "t.knit")
     assert not list(d)
     r = compile_source(src, "t.knit", until="skeleton")
-    fr = evaluate_frame(g, 0, r.skeleton.layers[-1].stmt.where,
-                        QueryEnv(lets={"g": r.skeleton.layers[0].stmt.value}), Diagnostics())
+    fr = evaluate_frame(
+        g,
+        0,
+        r.skeleton.layers[-1].stmt.where,
+        QueryEnv(lets={"g": r.skeleton.layers[0].stmt.value}),
+        Diagnostics(),
+    )
     on, col, row = fr.mask, fr.col, fr.row
     c = coords(g)
     ids = np.nonzero(on & (row > 0))[0]
@@ -163,8 +172,11 @@ def test_wale_grid_keeps_a_motif_on_its_wales_through_shaping():
         cols = col[g.course_ids(cid)][on[g.course_ids(cid)]]
         assert len(set(cols.tolist())) == cols.size
     # course/wale coordinates shear on this piece: some purl wale drifts off its column
-    drift = [s for s in range(g.n_stitches) if g.wale_prev[s, 0] >= 0
-             and c.wale[s] % 3 == 0 and c.wale[g.wale_prev[s, 0]] % 3 != 0]
+    drift = [
+        s
+        for s in range(g.n_stitches)
+        if g.wale_prev[s, 0] >= 0 and c.wale[s] % 3 == 0 and c.wale[g.wale_prev[s, 0]] % 3 != 0
+    ]
     assert drift
 
 
@@ -175,8 +187,9 @@ def test_stitch_grid_alignments():
     got = {k for k, v in grid_of(g).items() if v == P}
     assert got == {(cr, w) for cr in (3, 4, 5) for w in range(6, 11)}
     g, d = patterned(src.replace('"right", "top"', 'y_align = "middle"'), "t.knit")
-    assert {k for k, v in grid_of(g).items() if v == P} == \
-        {(cr, w) for cr in (4, 5, 6) for w in range(10, 15)}
+    assert {k for k, v in grid_of(g).items() if v == P} == {
+        (cr, w) for cr in (4, 5, 6) for w in range(10, 15)
+    }
 
 
 # ---- laws (hypothesis) ---------------------------------------------------------------------
@@ -213,8 +226,11 @@ def _ev(node, q):
     return m
 
 
-charts = st.integers(1, 4).flatmap(lambda w: st.lists(
-    st.lists(st.sampled_from(["x", "."]), min_size=w, max_size=w), min_size=1, max_size=4))
+charts = st.integers(1, 4).flatmap(
+    lambda w: st.lists(
+        st.lists(st.sampled_from(["x", "."]), min_size=w, max_size=w), min_size=1, max_size=4
+    )
+)
 boxes = st.tuples(st.integers(0, 4), st.integers(0, 4), st.integers(5, 11), st.integers(5, 13))
 nodes = st.sampled_from([0, 1])
 
@@ -252,7 +268,7 @@ def test_a_one_cell_grid_covers_the_whole_selection(node, box, how):
 
 
 @settings(max_examples=40, deadline=None)
-@given(nodes, st.floats(0.5, 8), st.integers(-2**40, 2**40), st.floats(0.1, 0.9))
+@given(nodes, st.floats(0.5, 8), st.integers(-(2**40), 2**40), st.floats(0.1, 0.9))
 def test_noise_is_deterministic_and_monotone_in_the_threshold(node, scale, seed, threshold):
     q = _call("noise", _n(scale), _n(threshold), _n(seed))
     a = _ev(node, q)
@@ -262,22 +278,23 @@ def test_noise_is_deterministic_and_monotone_in_the_threshold(node, scale, seed,
 
 
 @settings(max_examples=40, deadline=None)
-@given(st.integers(-2**40, 2**40), st.integers(1, 2**40))
+@given(st.integers(-(2**40), 2**40), st.integers(1, 2**40))
 def test_noise_changes_with_the_seed(seed, delta):
     def noise(s):
         return _ev(0, _call("noise", _n(2.5), _n(0.5), _n(s)))
+
     assert not np.array_equal(noise(seed), noise(seed + delta))
 
 
 def test_noise_changes_with_the_seed_everywhere():
     masks = {_ev(0, _call("noise", _n(3), _n(0.5), _n(s))).tobytes() for s in range(8)}
     assert len(masks) == 8
-    v = raster.simplex2(np.linspace(0, 40, 4001), np.linspace(3, 11, 4001),
-                        raster.permutation(5))
+    v = raster.simplex2(np.linspace(0, 40, 4001), np.linspace(3, 11, 4001), raster.permutation(5))
     assert -1.0 <= v.min() < -0.3 and 0.3 < v.max() <= 1.0
 
 
 # ---- errors --------------------------------------------------------------------------------
+
 
 def _diags(src, path):
     r = compile_source(src, path, until="skeleton")
@@ -287,25 +304,28 @@ def _diags(src, path):
     return list(d)
 
 
-@pytest.mark.parametrize(("body", "code", "at"), [
-    ('  let g = """\n K Q\n """\n  tile g', "E220", "Q"),
-    ('  let g = """\n K XR+\n """\n  stretch g', "E315", "XR+"),
-    ('  let g = """\n K P\n P\n """\n  draw g', "E716", "P\n"),
-    ("  let g = wales(0)\n  tile g", "E710", "g\n"),
-    ('  draw img("m.png")', "E710", "img"),
-    ('  set P where tile(wales(0))', "E710", "wales(0))"),
-    ('  set P where img("nope.png")', "E713", '"nope.png"'),
-    ('  set P where img("t.knit")', "E713", '"t.knit"'),
-    ('  set P where img("x.png", "q")', "E714", '"q"'),
-    ('  set P where img("x.png", "a", 3)', "E714", "3)"),
-    ('  set P where stitch_grid(0, 3)', "E715", "0,"),
-    ('  set P where stitch_grid(3, 3, "up")', "E715", '"up"'),
-    ('  set P where wale_grid(0:end, 1.5)', "E715", "1.5"),
-    ("  set P where noise(0)", "E717", "0)"),
-    ("  set P where noise(2, seed = 0.5)", "E717", "0.5"),
-    ("  set P where noise(2, colour = 1)", "E703", "colour"),
-    ('  set P where courses(0).tile("""\n x\n """, all())', "E703", "all()"),
-])
+@pytest.mark.parametrize(
+    ("body", "code", "at"),
+    [
+        ('  let g = """\n K Q\n """\n  tile g', "E220", "Q"),
+        ('  let g = """\n K XR+\n """\n  stretch g', "E315", "XR+"),
+        ('  let g = """\n K P\n P\n """\n  draw g', "E716", "P\n"),
+        ("  let g = wales(0)\n  tile g", "E710", "g\n"),
+        ('  draw img("m.png")', "E710", "img"),
+        ("  set P where tile(wales(0))", "E710", "wales(0))"),
+        ('  set P where img("nope.png")', "E713", '"nope.png"'),
+        ('  set P where img("t.knit")', "E713", '"t.knit"'),
+        ('  set P where img("x.png", "q")', "E714", '"q"'),
+        ('  set P where img("x.png", "a", 3)', "E714", "3)"),
+        ("  set P where stitch_grid(0, 3)", "E715", "0,"),
+        ('  set P where stitch_grid(3, 3, "up")', "E715", '"up"'),
+        ("  set P where wale_grid(0:end, 1.5)", "E715", "1.5"),
+        ("  set P where noise(0)", "E717", "0)"),
+        ("  set P where noise(2, seed = 0.5)", "E717", "0.5"),
+        ("  set P where noise(2, colour = 1)", "E703", "colour"),
+        ('  set P where courses(0).tile("""\n x\n """, all())', "E703", "all()"),
+    ],
+)
 def test_errors_are_located(body, code, at, tmp_path):
     design = tmp_path / "t.knit"
     src = sheet(6, 5, body)
@@ -313,7 +333,7 @@ def test_errors_are_located(body, code, at, tmp_path):
     diags = _diags(src, str(design))
     (diag,) = [x for x in diags if x.is_error]
     assert diag.code == code, diags
-    assert src[diag.span.start:].startswith(at), (src[diag.span.start:diag.span.start + 20], at)
+    assert src[diag.span.start :].startswith(at), (src[diag.span.start : diag.span.start + 20], at)
 
 
 def test_images_resolve_relative_to_the_design_and_pick_channels(tmp_path):
@@ -324,8 +344,12 @@ def test_images_resolve_relative_to_the_design_and_pick_channels(tmp_path):
     im.putpixel((0, 0), (0, 0, 0))  # left half black: dark, low luminance, low red
     im.save(tmp_path / "art" / "half.jpg", quality=100)
     base = sheet(6, 2, "  set P where img(ARGS)")
-    for args, left in (('"art/half.jpg"', True), ('"art/half.jpg", "l"', False),
-                       ('"art/half.jpg", "r", 0.9', False), ('"art/half.jpg", "a"', True)):
+    for args, left in (
+        ('"art/half.jpg"', True),
+        ('"art/half.jpg", "l"', False),
+        ('"art/half.jpg", "r", 0.9', False),
+        ('"art/half.jpg", "a"', True),
+    ):
         g, d = patterned(base.replace("ARGS", args), str(tmp_path / "d.knit"))
         assert not list(d)
         got = grid_of(g)
@@ -349,18 +373,21 @@ def test_a_drawing_larger_than_its_selection_warns_and_is_clipped():
 
 LAYERS = {
     "draw": 'draw """\n    . P P P .\n    P T . T P\n    P . M . P\n    . P P P .\n  """'
-            " where courses(4:end - 2)",
+    " where courses(4:end - 2)",
     "stretch": 'stretch """\n    P K K\n    K T K\n    K K M\n  """ where select(2:27, 5:24)',
     "tile": 'tile """\n    K FR1 M   M   FL1\n    K K   M   M   K\n    K K   FL1 FR1 K\n'
-            '    XR+ XL- K K K\n  """ where courses(1:end - 1)',
+    '    XR+ XL- K K K\n  """ where courses(1:end - 1)',
 }
 
 
 @pytest.mark.parametrize("shape", ["sheet", "tube"])
 @pytest.mark.parametrize("mode", list(LAYERS))
 def test_drawn_layer_golden(mode, shape):
-    kind = "sheet s { width: 30  length: 30 }" if shape == "sheet" else \
-        "tube s { width: 15  length: 30 }"
+    kind = (
+        "sheet s { width: 30  length: 30 }"
+        if shape == "sheet"
+        else "tube s { width: 15  length: 30 }"
+    )
     src = f"{kind}\nstart s.bottom\ns.top open\npattern s {{\n  {LAYERS[mode]}\n}}\n"
     g, d = patterned(src, "t.knit")
     assert not list(d)
@@ -371,9 +398,13 @@ def test_drawn_layer_golden(mode, shape):
 # ---- end to end ----------------------------------------------------------------------------
 
 ORACLE_DESIGNS = [
-    sheet(14, 16, '  draw """\n . P .\n P P P\n . P .\n """ where courses(2:end - 2)\n'
-          '  tile """\n T K\n K K\n """ where select(1:5, 0:3)\n'
-          '  stretch """\n P K\n K P\n """ where select(9:end - 2, 8:end)'),
+    sheet(
+        14,
+        16,
+        '  draw """\n . P .\n P P P\n . P .\n """ where courses(2:end - 2)\n'
+        '  tile """\n T K\n K K\n """ where select(1:5, 0:3)\n'
+        '  stretch """\n P K\n K P\n """ where select(9:end - 2, 8:end)',
+    ),
     "tube t { width: 8  length: 14  gauge: half }\nstart t.bottom\nt.top open\npattern t {\n"
     '  tile """\n P K K\n """ where wale_grid() and courses(1:end - 1)\n'
     '  draw """\n M .\n T M\n """ where side(back) and courses(3:end - 3)\n'

@@ -13,8 +13,7 @@ TUBE = "tube t { length: 4  width: 4 }\n"
 
 def test_every_ir_stage_has_a_verifier_or_is_checked_by_diagnostics_and_a_dump():
     names = [s.name for s in STAGES]
-    assert names == ["ast", "skeleton", "stitch-graph", "trace", "slices", "schedule",
-                     "machine"]
+    assert names == ["ast", "skeleton", "stitch-graph", "trace", "slices", "schedule", "machine"]
     assert EMITTABLE == tuple(names)
     assert all(s.verify is not None for s in STAGES[2:])  # from the stitch graph on
     assert [t.name for t in TARGETS] == ["knitout", "dat"]
@@ -29,7 +28,7 @@ def test_a_misspelt_stage_is_an_error_not_a_full_run():
 def test_until_stops_after_that_stage(until):
     r = compile_source(TUBE, "t.knit", until=until)
     assert r.ok and r.stage_reached == until
-    assert [name for name, _ in r.timings] == [s.name for s in STAGES][:len(r.timings)]
+    assert [name for name, _ in r.timings] == [s.name for s in STAGES][: len(r.timings)]
     assert r.timings[-1][0] == until
 
 
@@ -49,8 +48,7 @@ def test_targets_run_after_the_last_ir_stage():
 
 
 def test_a_verifier_violation_is_an_internal_error_naming_the_stage(monkeypatch):
-    bad = driver.Stage("trace", STAGES[3].run, lambda r: ["stitch 0 visited twice"],
-                       STAGES[3].dump)
+    bad = driver.Stage("trace", STAGES[3].run, lambda r: ["stitch 0 visited twice"], STAGES[3].dump)
     monkeypatch.setattr(driver, "STAGES", STAGES[:3] + (bad,) + STAGES[4:])
     with pytest.raises(driver.InternalError, match="stage `trace`.*visited twice"):
         compile_source(TUBE, "t.knit", until="trace")
@@ -79,9 +77,18 @@ def test_the_facade_is_the_pipeline_and_imports_lazily():
     import sys
 
     import knitc
+
     assert knitc.compile_source is compile_source and knitc.STAGES is STAGES
-    assert set(knitc.__all__) >= {"compile_source", "compile_file", "resume", "StitchGraph",
-                                  "MachineProgram", "Skeleton", "Trace", "Schedule"}
+    assert set(knitc.__all__) >= {
+        "compile_source",
+        "compile_file",
+        "resume",
+        "StitchGraph",
+        "MachineProgram",
+        "Skeleton",
+        "Trace",
+        "Schedule",
+    }
     assert set(knitc.__all__) == {"__version__", *knitc._PUBLIC}
     for name in knitc.__all__:
         getattr(knitc, name)

@@ -56,25 +56,29 @@ def ev_error(src: str) -> EvalError:
 
 # ---- arithmetic and precedence -------------------------------------------------------------
 
-@pytest.mark.parametrize("src, expected", [
-    ("1 + 2 * 3", 7),
-    ("(1 + 2) * 3", 9),
-    ("10 - 4 - 3", 3),            # left-associative
-    ("100 / 10 / 5", 2),          # left-associative
-    ("2 * 3 % 4", 2),             # * and % share a level, left to right
-    ("2 + 3 % 2", 3),             # % binds tighter than +
-    ("2 ^ 3 ^ 2", 512),           # ^ is right-associative
-    ("-2 ^ 2", -4),               # unary minus binds looser than ^
-    ("2 ^ -1", 0.5),
-    ("-(2 + 3)", -5),
-    ("--3", 3),
-    ("2 * -3", -6),
-    ("7 % 4", 3),
-    ("7 / 2", 3.5),
-    (".5 + 1.5e1", 15.5),
-    ("#n * #w + 1", 41),
-    ("#half_w * 2", 11.0),
-])
+
+@pytest.mark.parametrize(
+    "src, expected",
+    [
+        ("1 + 2 * 3", 7),
+        ("(1 + 2) * 3", 9),
+        ("10 - 4 - 3", 3),  # left-associative
+        ("100 / 10 / 5", 2),  # left-associative
+        ("2 * 3 % 4", 2),  # * and % share a level, left to right
+        ("2 + 3 % 2", 3),  # % binds tighter than +
+        ("2 ^ 3 ^ 2", 512),  # ^ is right-associative
+        ("-2 ^ 2", -4),  # unary minus binds looser than ^
+        ("2 ^ -1", 0.5),
+        ("-(2 + 3)", -5),
+        ("--3", 3),
+        ("2 * -3", -6),
+        ("7 % 4", 3),
+        ("7 / 2", 3.5),
+        (".5 + 1.5e1", 15.5),
+        ("#n * #w + 1", 41),
+        ("#half_w * 2", 11.0),
+    ],
+)
 def test_arithmetic_and_precedence(src, expected):
     got = ev(src)
     assert got == expected
@@ -109,32 +113,48 @@ def test_list_indexing():
 
 # ---- round and the other builtins ----------------------------------------------------------
 
-@pytest.mark.parametrize("x, expected", [
-    (2.5, 3), (3.5, 4), (0.5, 1), (1.5, 2), (-2.5, -2), (-0.5, 0), (-1.5, -1),
-    (2.4999, 2), (2.5001, 3), (7, 7), (-7.6, -8),
-])
+
+@pytest.mark.parametrize(
+    "x, expected",
+    [
+        (2.5, 3),
+        (3.5, 4),
+        (0.5, 1),
+        (1.5, 2),
+        (-2.5, -2),
+        (-0.5, 0),
+        (-1.5, -1),
+        (2.4999, 2),
+        (2.5001, 3),
+        (7, 7),
+        (-7.6, -8),
+    ],
+)
 def test_round_half_up(x, expected):
     # Python's round() rounds halves to even (round(2.5) == 2); knitc must not.
     assert round_half_up(x) == expected
     assert ev(f"round({x})") == expected
 
 
-@pytest.mark.parametrize("src, expected", [
-    ("min(3, 1, 2)", 1),
-    ("max(3, 1, 2)", 3),
-    ("max(7)", 7),
-    ("abs(-4)", 4),
-    ("floor(2.7)", 2),
-    ("floor(-2.2)", -3),
-    ("ceil(2.1)", 3),
-    ("sqrt(16)", 4.0),
-    ("clamp(15, 0, 10)", 10),
-    ("clamp(-5, 0, 10)", 0),
-    ("clamp(5, 0, 10)", 5),
-    ("lerp(10, 20, 0.25)", 12.5),
-    ("round(#w / 3)", 3),
-    ("min(#n, #w) + max(1, 2)", 6),
-])
+@pytest.mark.parametrize(
+    "src, expected",
+    [
+        ("min(3, 1, 2)", 1),
+        ("max(3, 1, 2)", 3),
+        ("max(7)", 7),
+        ("abs(-4)", 4),
+        ("floor(2.7)", 2),
+        ("floor(-2.2)", -3),
+        ("ceil(2.1)", 3),
+        ("sqrt(16)", 4.0),
+        ("clamp(15, 0, 10)", 10),
+        ("clamp(-5, 0, 10)", 0),
+        ("clamp(5, 0, 10)", 5),
+        ("lerp(10, 20, 0.25)", 12.5),
+        ("round(#w / 3)", 3),
+        ("min(#n, #w) + max(1, 2)", 6),
+    ],
+)
 def test_builtins(src, expected):
     assert ev(src) == pytest.approx(expected)
 
@@ -144,10 +164,22 @@ def test_trig_builtins():
     assert ev("cos(0)") == 1
 
 
-@pytest.mark.parametrize("src", [
-    "min()", "max()", "abs()", "abs(1, 2)", "round()", "round(1, 2)", "floor(1, 2)",
-    "sqrt(1, 2)", "clamp(1, 2)", "clamp(1, 2, 3, 4)", "lerp(1)",
-])
+@pytest.mark.parametrize(
+    "src",
+    [
+        "min()",
+        "max()",
+        "abs()",
+        "abs(1, 2)",
+        "round()",
+        "round(1, 2)",
+        "floor(1, 2)",
+        "sqrt(1, 2)",
+        "clamp(1, 2)",
+        "clamp(1, 2, 3, 4)",
+        "lerp(1)",
+    ],
+)
 def test_builtin_arity_errors(src):
     err = ev_error(src)
     assert err.code == "E304"
@@ -175,6 +207,7 @@ def test_builtin_failures_are_eval_errors():
 
 # ---- division by zero ----------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("src", ["1 / 0", "1 % 0", "#w / (#n - 4)", "0 ^ -1", "1.5 / 0.0"])
 def test_division_by_zero(src):
     err = ev_error(src)
@@ -190,21 +223,34 @@ def test_division_by_zero_span_points_at_divisor():
 
 # ---- comparisons and booleans --------------------------------------------------------------
 
-@pytest.mark.parametrize("src, expected", [
-    ("1 < 2", True), ("2 < 1", False), ("2 <= 2", True), ("3 > 4", False),
-    ("3 >= 3", True), ("1 == 1", True), ("1 == 2", False), ("1 != 2", True),
-    ("1 == 1.0", True),
-    ('"a" == "a"', True), ('"a" != "b"', True),
-    ("half == half", True), ("half == full", False),
-    ("[1, 2] == [1, 2]", True), ("[1, 2] == [2, 1]", False),
-    ("1 + 2 < 4", True),
-    ("not 1 < 2", False),
-    ("true or false and false", True),     # and binds tighter than or
-    ("(true or false) and false", False),
-    ("not true or true", True),            # not binds tighter than or
-    ("not (true or true)", False),
-    ("#flag and #n == 4", True),
-])
+
+@pytest.mark.parametrize(
+    "src, expected",
+    [
+        ("1 < 2", True),
+        ("2 < 1", False),
+        ("2 <= 2", True),
+        ("3 > 4", False),
+        ("3 >= 3", True),
+        ("1 == 1", True),
+        ("1 == 2", False),
+        ("1 != 2", True),
+        ("1 == 1.0", True),
+        ('"a" == "a"', True),
+        ('"a" != "b"', True),
+        ("half == half", True),
+        ("half == full", False),
+        ("[1, 2] == [1, 2]", True),
+        ("[1, 2] == [2, 1]", False),
+        ("1 + 2 < 4", True),
+        ("not 1 < 2", False),
+        ("true or false and false", True),  # and binds tighter than or
+        ("(true or false) and false", False),
+        ("not true or true", True),  # not binds tighter than or
+        ("not (true or true)", False),
+        ("#flag and #n == 4", True),
+    ],
+)
 def test_comparisons_and_booleans(src, expected):
     assert ev(src) is expected
 
@@ -215,10 +261,23 @@ def test_boolean_short_circuit():
     assert ev("true or 1 / 0 == 1") is True
 
 
-@pytest.mark.parametrize("src", [
-    "1 and true", "true and 1", "false or 2", "not 1", 'not "x"', '"a" < "b"', "1 + true",
-    "true * 2", '1 + "a"', "half + 1", "-true", "[1] + 1",
-])
+@pytest.mark.parametrize(
+    "src",
+    [
+        "1 and true",
+        "true and 1",
+        "false or 2",
+        "not 1",
+        'not "x"',
+        '"a" < "b"',
+        "1 + true",
+        "true * 2",
+        '1 + "a"',
+        "half + 1",
+        "-true",
+        "[1] + 1",
+    ],
+)
 def test_type_errors(src):
     assert ev_error(src).code == "E303"
 
@@ -232,6 +291,7 @@ def test_negative_base_fractional_power_is_an_error():
 
 
 # ---- profiles ------------------------------------------------------------------------------
+
 
 def test_profile_literal_and_interpolation():
     p = ev("[0: 10, 1: 20]")
@@ -271,17 +331,20 @@ def test_profile_with_param_points():
     assert p.points == ((0.0, 10.0), (1.0, 8.0))
 
 
-@pytest.mark.parametrize("src, points", [
-    ("[0: 10, 1: 20] * 2", ((0.0, 20.0), (1.0, 40.0))),
-    ("2 * [0: 10, 1: 20]", ((0.0, 20.0), (1.0, 40.0))),
-    ("[0: 10, 1: 20] / 2", ((0.0, 5.0), (1.0, 10.0))),
-    ("[0: 10, 1: 20] + 1", ((0.0, 11.0), (1.0, 21.0))),
-    ("1 + [0: 10, 1: 20]", ((0.0, 11.0), (1.0, 21.0))),
-    ("[0: 10, 1: 20] - 1", ((0.0, 9.0), (1.0, 19.0))),
-    ("30 - [0: 10, 1: 20]", ((0.0, 20.0), (1.0, 10.0))),   # operand order matters
-    ("40 / [0: 10, 1: 20]", ((0.0, 4.0), (1.0, 2.0))),
-    ("-[0: 10, 1: 20]", ((0.0, -10.0), (1.0, -20.0))),
-])
+@pytest.mark.parametrize(
+    "src, points",
+    [
+        ("[0: 10, 1: 20] * 2", ((0.0, 20.0), (1.0, 40.0))),
+        ("2 * [0: 10, 1: 20]", ((0.0, 20.0), (1.0, 40.0))),
+        ("[0: 10, 1: 20] / 2", ((0.0, 5.0), (1.0, 10.0))),
+        ("[0: 10, 1: 20] + 1", ((0.0, 11.0), (1.0, 21.0))),
+        ("1 + [0: 10, 1: 20]", ((0.0, 11.0), (1.0, 21.0))),
+        ("[0: 10, 1: 20] - 1", ((0.0, 9.0), (1.0, 19.0))),
+        ("30 - [0: 10, 1: 20]", ((0.0, 20.0), (1.0, 10.0))),  # operand order matters
+        ("40 / [0: 10, 1: 20]", ((0.0, 4.0), (1.0, 2.0))),
+        ("-[0: 10, 1: 20]", ((0.0, -10.0), (1.0, -20.0))),
+    ],
+)
 def test_profile_scaled_and_shifted_by_numbers(src, points):
     p = ev(src)
     assert isinstance(p, Profile)
@@ -296,8 +359,9 @@ def test_combining_two_profiles_is_an_error(op):
     assert "two profiles" in err.message
 
 
-@pytest.mark.parametrize("src", ["[0: 1, 1: 2] ^ 2", "[0: 1, 1: 2] % 2", "[0: 1, 1: 2] < 3",
-                                 "[0: 1, 1: 2] + true"])
+@pytest.mark.parametrize(
+    "src", ["[0: 1, 1: 2] ^ 2", "[0: 1, 1: 2] % 2", "[0: 1, 1: 2] < 3", "[0: 1, 1: 2] + true"]
+)
 def test_other_profile_operations_are_errors(src):
     assert ev_error(src).code == "E303"
 
@@ -335,12 +399,13 @@ def test_profile_equality_and_json():
     assert ev("[0: 1, 1: 2] == [0: 1, 1: 3]") is False
     c = Profile.constant(7)
     assert c.is_constant and c.at(0.3) == 7
-    assert c.to_json() == 7                      # a constant width reads as a number
+    assert c.to_json() == 7  # a constant width reads as a number
     assert ev("[0: 4, 1: 4]").to_json() == 4
     assert ev("[0: 4, 1: 6.5]").to_json() == [[0, 4], [1, 6.5]]
 
 
 # ---- references, helpers --------------------------------------------------------------------
+
 
 def test_param_and_prop_callbacks():
     assert ev("#n") == 4

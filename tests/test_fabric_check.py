@@ -27,9 +27,11 @@ TUBE = "tube t { length: 5  width: 6 }\n"
 RIB = "import std.stitches (rib)\nsheet s { length: 6  width: 8 }\npattern s { apply rib(1, 1) }\n"
 EYELET = "sheet s { length: 6  width: 8 }\npattern s { set FR1 where select(2, 3) }\n"
 CLOSED = "machine { increase: kickback }\ntube t { length: 4  width: 5 }\nt.bottom closed\n"
-STRIPS = ("tube t { length: 2  width: 4 }\nsplit s { degree: 2  folded: false }\n"
-          "sheet a { type: flat  length: 3  width: 4 }\nsheet b { type: flat  length: 3  width: 4 }\n"
-          "t.top -> s.base\ns.branches[0] -> a.bottom\ns.branches[1] -> b.bottom\n")
+STRIPS = (
+    "tube t { length: 2  width: 4 }\nsplit s { degree: 2  folded: false }\n"
+    "sheet a { type: flat  length: 3  width: 4 }\nsheet b { type: flat  length: 3  width: 4 }\n"
+    "t.top -> s.base\ns.branches[0] -> a.bottom\ns.branches[1] -> b.bottom\n"
+)
 
 
 @functools.cache
@@ -47,8 +49,11 @@ def with_ops(r: Result, ops: list[Op]) -> Result:
 
 def action_op(r: Result, s: int, kinds=("knit",)) -> int:
     """Index of the op of stitch `s` that its action pass made."""
-    return next(i for i, o in enumerate(r.program.ops)
-                if o.stitch == s and o.phase == "action" and o.kind in kinds)
+    return next(
+        i
+        for i, o in enumerate(r.program.ops)
+        if o.stitch == s and o.phase == "action" and o.kind in kinds
+    )
 
 
 def stitch_at(r: Result, course: int, pos: int) -> int:
@@ -56,6 +61,7 @@ def stitch_at(r: Result, course: int, pos: int) -> int:
 
 
 # ---- the breakages --------------------------------------------------------------------------
+
 
 def tuck_instead_of_knit(r: Result) -> tuple[Result, int]:
     """A knit in the middle of the sheet made as a tuck: its loop holds nothing (a hole)."""
@@ -79,12 +85,15 @@ def no_cast_off(r: Result) -> tuple[Result, int]:
     """The last course's loops dropped instead of bound off (the edge unravels)."""
     last = r.graph.n_courses - 1
     ends = set(r.graph.course_ids(last).tolist())
-    ops = [o for o in r.program.ops if not (o.phase == "cast_off" or
-                                            (o.phase == "yarn_end" and o.kind == "knit"))]
+    ops = [
+        o
+        for o in r.program.ops
+        if not (o.phase == "cast_off" or (o.phase == "yarn_end" and o.kind == "knit"))
+    ]
     where = {o.stitch: o.needle for o in ops if o.stitch in ends and o.phase == "action"}
     outhook = next(i for i, o in enumerate(ops) if o.kind == "outhook")
     drops = [Op("drop", needle=n, stitch=s) for s, n in sorted(where.items())]
-    return with_ops(r, ops[:outhook + 1] + drops + ops[outhook + 1:]), min(ends)
+    return with_ops(r, ops[: outhook + 1] + drops + ops[outhook + 1 :]), min(ends)
 
 
 def knitted_as_designed_but_designed_otherwise(r: Result, instr: str) -> Result:
@@ -100,8 +109,16 @@ def open_start(r: Result) -> tuple[Result, int]:
     back = [s for s in r.graph.course_ids(1).tolist() if int(r.graph.side[s]) == 1]
     for i, o in enumerate(ops):
         if o.kind == "split":
-            ops[i] = Op("knit", o.dir, o.needle, None, o.carriers, stitch=o.stitch,
-                        span=o.span, phase=o.phase)
+            ops[i] = Op(
+                "knit",
+                o.dir,
+                o.needle,
+                None,
+                o.carriers,
+                stitch=o.stitch,
+                span=o.span,
+                phase=o.phase,
+            )
         elif o.stitch in back and o.phase == "action" and o.kind == "knit":
             ops[i] = dataclasses.replace(o, kind="tuck", dir=-o.dir)
     return with_ops(r, ops), back[0]
@@ -118,11 +135,20 @@ CASES = {
     "dropped loop": lambda: (*dropped_loop(build(SHEET)), {"parents", "unattached"}),
     "no cast-off": lambda: (*no_cast_off(build(SHEET)), {"unattached"}),
     "knit where a purl is designed": lambda: (
-        knitted_as_designed_but_designed_otherwise(build(SHEET), "P"), None, {"pull"}),
+        knitted_as_designed_but_designed_otherwise(build(SHEET), "P"),
+        None,
+        {"pull"},
+    ),
     "purl where a knit is designed": lambda: (
-        knitted_as_designed_but_designed_otherwise(build(RIB), "K"), None, {"pull"}),
+        knitted_as_designed_but_designed_otherwise(build(RIB), "K"),
+        None,
+        {"pull"},
+    ),
     "a lace move the design does not have": lambda: (
-        knitted_as_designed_but_designed_otherwise(build(EYELET), "K"), None, {"parents"}),
+        knitted_as_designed_but_designed_otherwise(build(EYELET), "K"),
+        None,
+        {"parents"},
+    ),
     "open closed start": lambda: (*open_start(build(CLOSED)), {"hole"}),
 }
 
@@ -130,8 +156,9 @@ CASES = {
 @functools.cache
 def checked() -> dict[str, tuple[Result, list[Mismatch], int | None, set[str]]]:
     made = {name: case() for name, case in CASES.items()}
-    reports = run_oracle_on_text([write_knitout(r.program) for r, _, _ in made.values()],
-                                 fabric=True)
+    reports = run_oracle_on_text(
+        [write_knitout(r.program) for r, _, _ in made.values()], fabric=True
+    )
     out = {}
     for (name, (r, s, kinds)), rep in zip(made.items(), reports, strict=True):
         assert rep.fabric is not None, rep.describe()
@@ -149,5 +176,4 @@ def test_the_check_reports_what_is_broken_and_nothing_else(name):
     assert kinds & got, f"expected {kinds}, got:\n" + "\n".join(map(str, found))
     if stitch is not None:  # and it is reported where it is, or on the next course's stitch
         near = {stitch} | {int(k) for k in r.graph.wale_next[stitch] if k >= 0}
-        assert any(m.stitch in near for m in found if m.kind in kinds), \
-            "\n".join(map(str, found))
+        assert any(m.stitch in near for m in found if m.kind in kinds), "\n".join(map(str, found))

@@ -34,10 +34,11 @@ def run_lines(path: Path) -> list[str]:
 
 def _command(line: str, path: Path) -> str:
     line = line.replace("%s", path.name)
-    line = re.sub(r"(^|\|\s*|\bnot\s+)knitc\b", lambda m: f"{m.group(1)}{sys.executable} -m knitc",
-                  line)
+    line = re.sub(
+        r"(^|\|\s*|\bnot\s+)knitc\b", lambda m: f"{m.group(1)}{sys.executable} -m knitc", line
+    )
     line = re.sub(r"(^|\|\s*)filecheck\b", lambda m: f"{m.group(1)}{BIN / 'filecheck'}", line)
-    return "not() { ! \"$@\"; }\n" + line
+    return 'not() { ! "$@"; }\n' + line
 
 
 @pytest.mark.parametrize("path", CASES, ids=lambda p: str(p.relative_to(ROOT)))
@@ -46,8 +47,14 @@ def test_filecheck(path: Path):
     assert lines, f"{path} has no RUN line"
     env = dict(os.environ, PYTHONIOENCODING="utf-8", NO_COLOR="1")
     for line in lines:
-        proc = subprocess.run(["bash", "-o", "pipefail", "-c", _command(line, path)],
-                              cwd=path.parent, capture_output=True, text=True, env=env,
-                              timeout=300)
-        assert proc.returncode == 0, (f"RUN: {line}\n--- stdout\n{proc.stdout}"
-                                      f"\n--- stderr\n{proc.stderr}")
+        proc = subprocess.run(
+            ["bash", "-o", "pipefail", "-c", _command(line, path)],
+            cwd=path.parent,
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=300,
+        )
+        assert proc.returncode == 0, (
+            f"RUN: {line}\n--- stdout\n{proc.stdout}\n--- stderr\n{proc.stderr}"
+        )

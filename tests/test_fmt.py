@@ -334,9 +334,16 @@ def test_format_layer_stmt():
     assert format_layer_stmt(body[1], "  ") == '  draw """\n    K P\n  """'
 
 
-@pytest.mark.parametrize("path", sorted(
-    [*Path(__file__).parent.parent.joinpath("examples").rglob("*.knit"),
-     *Path(__file__).parent.parent.joinpath("stdlib").rglob("*.knit")]), ids=str)
+@pytest.mark.parametrize(
+    "path",
+    sorted(
+        [
+            *Path(__file__).parent.parent.joinpath("examples").rglob("*.knit"),
+            *Path(__file__).parent.parent.joinpath("stdlib").rglob("*.knit"),
+        ]
+    ),
+    ids=str,
+)
 def test_shipped_sources_are_canonical(path: Path) -> None:
     """Examples and stdlib are documentation: they are kept in `knitc fmt` form."""
     text = path.read_text(encoding="utf-8")

@@ -41,6 +41,7 @@ def line_of(err: EvalError) -> int:
 
 # ---- let, assignment, scoping ----------------------------------------------------------------
 
+
 def test_let_and_assign():
     assert run("let x = 1\nx = x + 2\nlet y = x * 10") == {"x": 3, "y": 30}
 
@@ -104,6 +105,7 @@ def test_words_when_allowed():
 
 # ---- if / else if / else --------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("x, expected", [(1, "a"), (5, "b"), (7, "c"), (9, "d")])
 def test_else_if_chain(x, expected):
     src = """
@@ -116,8 +118,10 @@ if x < 3 { r = 1 } else if x < 6 { r = 2 } else if x == 7 { r = 3 } else { r = 4
 
 def test_only_the_taken_branch_runs():
     calls = []
-    run("if true { f(1) } else { f(2) }\nif false { f(3) } else if true { f(4) } else { f(5) }",
-        functions={"f": calls.append})
+    run(
+        "if true { f(1) } else { f(2) }\nif false { f(3) } else if true { f(4) } else { f(5) }",
+        functions={"f": calls.append},
+    )
     assert calls == [1, 4]
 
 
@@ -128,16 +132,20 @@ def test_if_needs_a_boolean():
 
 # ---- for -------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("expr, expected", [
-    ("range(4)", [0, 1, 2, 3]),
-    ("range(2, 5)", [2, 3, 4]),
-    ("range(10, 0, -3)", [10, 7, 4, 1]),
-    ("range(0)", []),
-    ("range(3, 1)", []),
-    ("[5, 1, 4]", [5, 1, 4]),
-    ("[]", []),
-    ("range(N / 2)", [0, 1, 2]),  # 6 / 2 is the whole number 3
-])
+
+@pytest.mark.parametrize(
+    "expr, expected",
+    [
+        ("range(4)", [0, 1, 2, 3]),
+        ("range(2, 5)", [2, 3, 4]),
+        ("range(10, 0, -3)", [10, 7, 4, 1]),
+        ("range(0)", []),
+        ("range(3, 1)", []),
+        ("[5, 1, 4]", [5, 1, 4]),
+        ("[]", []),
+        ("range(N / 2)", [0, 1, 2]),  # 6 / 2 is the whole number 3
+    ],
+)
 def test_for_iterates(expr, expected):
     seen = []
     run(f"for i in {expr} {{ f(i) }}", {"N": 6}, functions={"f": seen.append})
@@ -146,8 +154,10 @@ def test_for_iterates(expr, expected):
 
 def test_nested_loops_and_loop_variable_scope():
     seen = []
-    out = run("for i in range(2) { for j in [i, i + 10] { f(i * 100 + j) } }",
-              functions={"f": seen.append})
+    out = run(
+        "for i in range(2) { for j in [i, i + 10] { f(i * 100 + j) } }",
+        functions={"f": seen.append},
+    )
     assert seen == [0, 10, 101, 111] and out == {}
 
 
@@ -157,20 +167,25 @@ def test_assigning_the_loop_variable_does_not_change_the_iteration():
     assert seen == [0, 10, 20]
 
 
-@pytest.mark.parametrize("src, code", [
-    ("for i in 3 { }", "E303"),
-    ("for i in range(2.5) { }", "E303"),
-    ("for i in range(0, 4, 0) { }", "E305"),
-    ("for i in range() { }", "E304"),
-    ("for i in range(1, 2, 3, 4) { }", "E304"),
-])
+@pytest.mark.parametrize(
+    "src, code",
+    [
+        ("for i in 3 { }", "E303"),
+        ("for i in range(2.5) { }", "E303"),
+        ("for i in range(0, 4, 0) { }", "E305"),
+        ("for i in range() { }", "E304"),
+        ("for i in range(1, 2, 3, 4) { }", "E304"),
+    ],
+)
 def test_for_errors(src, code):
     assert run_error(src).code == code
 
 
 def test_range_and_len_as_values():
-    out = run("let r = range(2, 6)\nlet n = len(r)\nlet x = r[1]\nlet m = len([1, 2, 3])"
-              "\nlet same = range(3) == [0, 1, 2]\nlet differ = range(3) != [0, 1]")
+    out = run(
+        "let r = range(2, 6)\nlet n = len(r)\nlet x = r[1]\nlet m = len([1, 2, 3])"
+        "\nlet same = range(3) == [0, 1, 2]\nlet differ = range(3) != [0, 1]"
+    )
     assert out["n"] == 4 and out["x"] == 3 and out["m"] == 3
     assert out["same"] is True and out["differ"] is True
 
@@ -181,11 +196,17 @@ def test_builtins_see_locals():
 
 # ---- host functions --------------------------------------------------------------------------
 
+
 def test_host_functions_positional_and_keyword():
     log = []
-    run("knit(dir, 3)\nxfer(1, to = 2)", words=("dir",),
-        functions={"knit": lambda *a: log.append(("knit", a)),
-                   "xfer": lambda a, to: log.append(("xfer", a, to))})
+    run(
+        "knit(dir, 3)\nxfer(1, to = 2)",
+        words=("dir",),
+        functions={
+            "knit": lambda *a: log.append(("knit", a)),
+            "xfer": lambda a, to: log.append(("xfer", a, to)),
+        },
+    )
     assert log == [("knit", (Word("dir"), 3)), ("xfer", 1, 2)]
 
 
@@ -201,14 +222,14 @@ def test_host_arity_is_checked():
 
 def test_host_receives_the_call_span():
     spans = []
-    run("let a = 1\nop(a)", functions={"op": Host(lambda a, span: spans.append(span),
-                                                   span=True)})
+    run("let a = 1\nop(a)", functions={"op": Host(lambda a, span: spans.append(span), span=True)})
     assert len(spans) == 1 and spans[0].line == 3
 
 
 def test_host_errors_are_located_at_the_call():
     def bad(x):
         raise EvalError("E330", "no such needle", UNKNOWN_SPAN)
+
     err = run_error("let a = 1\nop(a)", functions={"op": bad})
     assert err.code == "E330" and line_of(err) == 2
 
@@ -226,10 +247,13 @@ def test_host_is_called_once_per_evaluation():
 
 # ---- mappings --------------------------------------------------------------------------------
 
+
 def test_map_statements_go_to_the_callback():
     maps = []
-    run("for i in range(2) { i -> (2 * i, 2 * i + 1) }\n(0, 1) -> 5\n3 -> 4",
-        on_map=lambda s, d, span: maps.append((s, d, span.line)))
+    run(
+        "for i in range(2) { i -> (2 * i, 2 * i + 1) }\n(0, 1) -> 5\n3 -> 4",
+        on_map=lambda s, d, span: maps.append((s, d, span.line)),
+    )
     assert maps == [(0, (0, 1), 2), (1, (2, 3), 2), ((0, 1), 5, 3), (3, 4, 4)]
 
 
@@ -238,6 +262,7 @@ def test_map_without_callback():
 
 
 # ---- hooks and the step budget ---------------------------------------------------------------
+
 
 def test_param_hook_and_default_refusal():
     assert run("let x = #w + 1", param=lambda name, span: {"w": 9}[name]) == {"x": 10}

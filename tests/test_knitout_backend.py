@@ -21,8 +21,10 @@ from knitc.source import Span
 from oracle import assert_clean, run_oracle_on_text
 from test_machine_ir import flat_swatch, half_gauge_tube
 
-HEADER = (";!knitout-2\n;;Machine: SWG091N2\n;;Gauge: 15\n;;Carriers: 1 2 3 4 5 6 7 8 9 10\n"
-          ";;Position: Center\n")
+HEADER = (
+    ";!knitout-2\n;;Machine: SWG091N2\n;;Gauge: 15\n;;Carriers: 1 2 3 4 5 6 7 8 9 10\n"
+    ";;Position: Center\n"
+)
 
 
 def line(n: int, col: int = 1) -> Span:
@@ -57,7 +59,9 @@ def tiny() -> MachineProgram:
     return p
 
 
-TINY = HEADER + """\
+TINY = (
+    HEADER
+    + """\
 ; tiny: 4 stitches
 x-stitch-number 61
 inhook 3 ;!source:tiny.knit:1:1
@@ -82,6 +86,7 @@ drop f1
 drop f2
 drop f3
 """
+)
 
 
 def every_kind() -> MachineProgram:
@@ -122,6 +127,7 @@ def every_kind() -> MachineProgram:
 
 # ---- exact text -------------------------------------------------------------------------------
 
+
 def test_golden_tiny():
     assert write_knitout(tiny()) == TINY
 
@@ -137,10 +143,11 @@ def test_carrier_sets_one_per_line():
     p.in_((4, 5), span=line(9))
     p.knit(-1, "f2", (4, 5))
     p.out((4, 5))
-    body = write_knitout(p)[len(HEADER):]
-    assert body == ("in 4 ;!source:tiny.knit:9:1\nin 5 ;!source:tiny.knit:9:1\n"
-                    "knit - f2 4 5\nout 4\nout 5\n")
-    joined = write_knitout(p, one_carrier_per_line=False)[len(HEADER):]
+    body = write_knitout(p)[len(HEADER) :]
+    assert body == (
+        "in 4 ;!source:tiny.knit:9:1\nin 5 ;!source:tiny.knit:9:1\nknit - f2 4 5\nout 4\nout 5\n"
+    )
+    joined = write_knitout(p, one_carrier_per_line=False)[len(HEADER) :]
     assert joined == "in 4 5 ;!source:tiny.knit:9:1\nknit - f2 4 5\nout 4 5\n"
 
 
@@ -150,14 +157,18 @@ def test_pause_and_comments():
     p.comment("")
     p.pause("change  the\nyarn", span=line(5))
     p.pause()
-    assert write_knitout(p)[len(HEADER):] == \
-        "; two\n; lines\n;\n; change the yarn\npause ;!source:tiny.knit:5:1\npause\n"
+    assert (
+        write_knitout(p)[len(HEADER) :]
+        == "; two\n; lines\n;\n; change the yarn\npause ;!source:tiny.knit:5:1\npause\n"
+    )
 
 
 def test_header_follows_the_machine_and_position():
     p = MachineProgram(Machine(name="SWG061N2", gauge=12, carriers=8), position="Keep")
-    assert write_knitout(p) == (";!knitout-2\n;;Machine: SWG061N2\n;;Gauge: 12\n"
-                                ";;Carriers: 1 2 3 4 5 6 7 8\n;;Position: Keep\n")
+    assert write_knitout(p) == (
+        ";!knitout-2\n;;Machine: SWG061N2\n;;Gauge: 12\n"
+        ";;Carriers: 1 2 3 4 5 6 7 8\n;;Position: Keep\n"
+    )
 
 
 def test_source_comment_stays_on_one_line():
@@ -166,8 +177,7 @@ def test_source_comment_stays_on_one_line():
     assert write_knitout(p).endswith("knit + f1 3 ;!source:odd name.knit:2:1\n")
 
 
-SAMPLES = {"tiny": tiny, "swatch": flat_swatch, "tube": half_gauge_tube,
-           "every_kind": every_kind}
+SAMPLES = {"tiny": tiny, "swatch": flat_swatch, "tube": half_gauge_tube, "every_kind": every_kind}
 
 
 @pytest.mark.parametrize("name", SAMPLES)
@@ -203,18 +213,20 @@ def test_line_map():
 
 # ---- reading back -----------------------------------------------------------------------------
 
+
 def strip_spans(p: MachineProgram) -> list[Op]:
     """The ops without provenance (and pause messages, which are written as comments)."""
-    return [Op(o.kind, o.dir, o.needle, o.needle2, o.carriers,
-               None if o.kind == "pause" else o.value) for o in p]
+    return [
+        Op(o.kind, o.dir, o.needle, o.needle2, o.carriers, None if o.kind == "pause" else o.value)
+        for o in p
+    ]
 
 
 @pytest.mark.parametrize("name", SAMPLES)
 @pytest.mark.parametrize("source_comments", [True, False])
 def test_read_back(name, source_comments):
     p = SAMPLES[name]()
-    q = read_knitout(write_knitout(p, source_comments=source_comments,
-                                   one_carrier_per_line=False))
+    q = read_knitout(write_knitout(p, source_comments=source_comments, one_carrier_per_line=False))
     assert q.position == p.position
     want = strip_spans(p)
     if name == "every_kind":  # the two-line comment reads back as two comments; pause's
@@ -231,15 +243,23 @@ def test_read_rejects():
 
 
 ops = st.one_of(
-    st.builds(lambda d, n, c: Op("knit", d, n, None, c), st.sampled_from([1, -1]),
-              st.builds(Needle, st.sampled_from(["f", "b"]), st.integers(0, 540)),
-              st.lists(st.integers(1, 10), min_size=1, max_size=2, unique=True).map(tuple)),
-    st.builds(lambda a, b: Op("xfer", 0, Needle("f", a), Needle("bs", b)),
-              st.integers(0, 540), st.integers(0, 540)),
+    st.builds(
+        lambda d, n, c: Op("knit", d, n, None, c),
+        st.sampled_from([1, -1]),
+        st.builds(Needle, st.sampled_from(["f", "b"]), st.integers(0, 540)),
+        st.lists(st.integers(1, 10), min_size=1, max_size=2, unique=True).map(tuple),
+    ),
+    st.builds(
+        lambda a, b: Op("xfer", 0, Needle("f", a), Needle("bs", b)),
+        st.integers(0, 540),
+        st.integers(0, 540),
+    ),
     st.builds(lambda r: Op("rack", value=r), st.sampled_from([0, 1, -4, 0.25, -0.75, 2])),
     st.builds(lambda k: Op("stitch_number", value=k), st.integers(0, 99)),
-    st.builds(lambda c: Op("outhook", carriers=c),
-              st.lists(st.integers(1, 10), min_size=1, max_size=3, unique=True).map(tuple)),
+    st.builds(
+        lambda c: Op("outhook", carriers=c),
+        st.lists(st.integers(1, 10), min_size=1, max_size=3, unique=True).map(tuple),
+    ),
 )
 
 
@@ -255,6 +275,7 @@ def test_write_read_round_trip(op_list):
 
 # ---- the independent oracle ------------------------------------------------------------------
 
+
 def broken_programs() -> dict[str, tuple[MachineProgram, set[str]]]:
     """Each sample program with one defect, and the problem kinds the oracle must find."""
     return {
@@ -262,15 +283,20 @@ def broken_programs() -> dict[str, tuple[MachineProgram, set[str]]]:
         "swatch_no_outhook": (flat_swatch(outhook=False), {"carriers_in"}),
         # the drops come before the outhook, which fails: no loops are left
         "swatch_hook_kept": (flat_swatch(release=False), {"error", "hook", "carriers_in"}),
-        "tube_no_rack": (half_gauge_tube(shaping_rack=False), {"error", "loops_left",
-                                                                "carriers_in"}),
+        "tube_no_rack": (
+            half_gauge_tube(shaping_rack=False),
+            {"error", "loops_left", "carriers_in"},
+        ),
     }
 
 
 @pytest.fixture(scope="module")
 def reports():
-    texts = {f"{name}{'' if sc else '/plain'}": write_knitout(make(), source_comments=sc)
-             for name, make in SAMPLES.items() for sc in (True, False)}
+    texts = {
+        f"{name}{'' if sc else '/plain'}": write_knitout(make(), source_comments=sc)
+        for name, make in SAMPLES.items()
+        for sc in (True, False)
+    }
     texts |= {name: write_knitout(p) for name, (p, _) in broken_programs().items()}
     texts["tiny/joined"] = write_knitout(tiny(), one_carrier_per_line=False)
     names = list(texts)
@@ -292,8 +318,7 @@ def test_samples_are_clean_on_the_oracle(reports, name):
 def test_source_comments_change_nothing(reports, name):
     a, b = reports[name], reports[name + "/plain"]
     assert_clean(b)
-    assert (a.carriage_passes, a.knit_graph, a.lines) == (b.carriage_passes, b.knit_graph,
-                                                          b.lines)
+    assert (a.carriage_passes, a.knit_graph, a.lines) == (b.carriage_passes, b.knit_graph, b.lines)
 
 
 @pytest.mark.parametrize("name", ["tiny", "swatch", "tube"])

@@ -17,8 +17,9 @@ from knitc.cli import main
 from knitc.driver import compile_file
 
 REPO = Path(__file__).resolve().parent.parent
-DESIGNS = sorted((REPO / "examples").glob("*.knit")) + \
-    sorted((REPO / "examples" / "knitskel").glob("*.knit"))
+DESIGNS = sorted((REPO / "examples").glob("*.knit")) + sorted(
+    (REPO / "examples" / "knitskel").glob("*.knit")
+)
 
 
 def _key(path: Path) -> str:

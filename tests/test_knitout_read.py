@@ -60,13 +60,33 @@ def machine_programs(draw, max_steps: int = 40, width: int = 14) -> MachineProgr
 
     def pair(i: int) -> tuple[Needle, Needle]:
         r = int(racking)
-        return (Needle("f", i), Needle("b", i - r)) if draw(st.booleans()) \
+        return (
+            (Needle("f", i), Needle("b", i - r))
+            if draw(st.booleans())
             else (Needle("b", i), Needle("f", i + r))
+        )
 
     for _ in range(draw(st.integers(1, max_steps))):
-        step = draw(st.sampled_from(("in", "stitch", "stitch", "stitch", "xfer", "rack",
-                                     "setting", "drop", "split", "release", "out", "pause",
-                                     "miss", "comment")))
+        step = draw(
+            st.sampled_from(
+                (
+                    "in",
+                    "stitch",
+                    "stitch",
+                    "stitch",
+                    "xfer",
+                    "rack",
+                    "setting",
+                    "drop",
+                    "split",
+                    "release",
+                    "out",
+                    "pause",
+                    "miss",
+                    "comment",
+                )
+            )
+        )
         quarter = racking != int(racking)
         if step == "in" and len(active) < 3:
             c = draw(st.sampled_from([c for c in range(1, 11) if c not in active]))
@@ -110,9 +130,12 @@ def machine_programs(draw, max_steps: int = 40, width: int = 14) -> MachineProgr
                 racking = r
         elif step == "setting":
             kind = draw(st.sampled_from(("stitch_number", "speed", "presser", "stitch")))
-            value = {"stitch_number": st.integers(0, 100), "speed": st.integers(0, 15),
-                     "presser": st.sampled_from(("on", "off")),
-                     "stitch": st.sampled_from(STITCH_PAIRS)}[kind]
+            value = {
+                "stitch_number": st.integers(0, 100),
+                "speed": st.integers(0, 15),
+                "presser": st.sampled_from(("on", "off")),
+                "stitch": st.sampled_from(STITCH_PAIRS),
+            }[kind]
             ops.append(Op(kind, value=draw(value)))
         elif step == "drop":
             for _ in range(draw(st.integers(1, 4))):
@@ -148,6 +171,7 @@ def machine_programs(draw, max_steps: int = 40, width: int = 14) -> MachineProgr
 
 # ---- reading what was written ----------------------------------------------------------------
 
+
 @pytest.mark.parametrize("path", FIXTURES, ids=lambda p: p.stem)
 def test_every_fixture_reads_and_writes_back_to_the_same_ops(path):
     text = path.read_text(encoding="utf-8")
@@ -159,7 +183,7 @@ def test_every_fixture_reads_and_writes_back_to_the_same_ops(path):
     ops = [o for o in prog.ops if o.kind != "comment"]
     assert [o.span.line for o in ops] == instructions  # one op per instruction line, in order
     for op in ops:
-        assert text[op.span.start:op.span.end] == lines[op.span.line - 1].split(";")[0].strip()
+        assert text[op.span.start : op.span.end] == lines[op.span.line - 1].split(";")[0].strip()
     again = parse_knitout(write_knitout(prog, one_carrier_per_line=False), "again.k")
     assert shape(again) == shape(prog)
     assert (again.position, again.width) == (prog.position, prog.width)
@@ -168,10 +192,15 @@ def test_every_fixture_reads_and_writes_back_to_the_same_ops(path):
 def test_headers_land_in_the_program():
     prog = parse_knitout((ROOT / "tests/fixtures/dat/pos_center.k").read_text(), "c.k")
     assert (prog.position, prog.width) == ("Center", 250)
-    assert parse_knitout((ROOT / "tests/fixtures/dat/pos_keep.k").read_text(), "k.k").position \
+    assert (
+        parse_knitout((ROOT / "tests/fixtures/dat/pos_keep.k").read_text(), "k.k").position
         == "Keep"
-    prog = parse_knitout(";!knitout-2\n;;Machine: SWG061N2\n;;Gauge: 7\n;;Carriers: 1 2 3\n"
-                         ";;Yarn-1: 50-50 Rust\n;;X-Note: ignored\n", "h.k")
+    )
+    prog = parse_knitout(
+        ";!knitout-2\n;;Machine: SWG061N2\n;;Gauge: 7\n;;Carriers: 1 2 3\n"
+        ";;Yarn-1: 50-50 Rust\n;;X-Note: ignored\n",
+        "h.k",
+    )
     assert prog.machine.name == "SWG061N2" and prog.machine.gauge == 7
     assert prog.machine.carriers == 3 and prog.position == "Center" and prog.width is None
     assert ";;Width: 250" in write_knitout(MachineProgram(Machine(), width=250))
@@ -199,12 +228,17 @@ def test_random_programs_print_and_read_back_equal(prog):
     back = parse_knitout(text, "random.k")
     assert shape(back) == shape(prog)
     lines = text.split("\n")
-    assert all(lines[o.span.line - 1].startswith(str(o).split(" ;")[0]) for o in back.ops
-               if o.kind != "comment")
+    assert all(
+        lines[o.span.line - 1].startswith(str(o).split(" ;")[0])
+        for o in back.ops
+        if o.kind != "comment"
+    )
 
 
 def test_synonyms_and_extensions_map_onto_the_ir():
-    text = HEADER + """\
+    text = (
+        HEADER
+        + """\
 in 3
 knit - f2 3
 knit + f1
@@ -220,11 +254,24 @@ pause ; before the next pass
 tuck + fs-2 3
 out 3
 """
+    )
     prog = parse_knitout(text, "s.k")
     assert [str(o) for o in prog.ops] == [
-        "in 3", "knit - f2 3", "drop f1", "amiss b4", "xfer f1 b1", "split - f2 b2 3",
-        "rack -0.75", "stitch 10 15", "x-stitch-number 61", "x-speed-number 3",
-        "x-presser-mode auto", "pause", "tuck + fs-2 3", "out 3"]
+        "in 3",
+        "knit - f2 3",
+        "drop f1",
+        "amiss b4",
+        "xfer f1 b1",
+        "split - f2 b2 3",
+        "rack -0.75",
+        "stitch 10 15",
+        "x-stitch-number 61",
+        "x-speed-number 3",
+        "x-presser-mode auto",
+        "pause",
+        "tuck + fs-2 3",
+        "out 3",
+    ]
     assert prog.ops[6].value == -0.75 and prog.ops[7].value == (10, 15)
     assert verify(prog) == []
 
@@ -233,15 +280,20 @@ def test_comments_are_kept_as_ops_or_dropped():
     text = HEADER + "; a note\n;;not a header\nin 3 ; trailing\n;\nout 3\n"
     with_comments = parse_knitout(text, "c.k")
     assert [(o.kind, o.value) for o in with_comments.ops] == [
-        ("comment", "a note"), ("comment", ";not a header"), ("in", None), ("comment", ""),
-        ("out", None)]
+        ("comment", "a note"),
+        ("comment", ";not a header"),
+        ("in", None),
+        ("comment", ""),
+        ("out", None),
+    ]
     assert [o.kind for o in parse_knitout(text, "c.k", comments=False).ops] == ["in", "out"]
 
 
 def test_carrier_names_are_numbered_by_their_place_in_the_header():
     warnings: list = []
-    prog = parse_knitout(";!knitout-2\n;;Carriers: A B C\nin C\nknit + f1 C\nout C\n", "n.k",
-                         warnings=warnings)
+    prog = parse_knitout(
+        ";!knitout-2\n;;Carriers: A B C\nin C\nknit + f1 C\nout C\n", "n.k", warnings=warnings
+    )
     assert [o.carriers for o in prog.ops] == [(3,), (3,), (3,)]
     assert prog.machine.carriers == 3
     assert [w.code for w in warnings] == ["W910"] and "C -> 3" in warnings[0].message
@@ -251,11 +303,10 @@ def test_carrier_names_are_numbered_by_their_place_in_the_header():
 
 def test_warnings_for_what_the_spec_says_to_warn_about():
     warnings: list = []
-    text = (";!knitout-9\r\n;;Foo: 1\r\nin 1\r\nx-vis-color #ff0000 1\r\nknit + f1 1\r\n"
-            "out 1\r\n")
+    text = ";!knitout-9\r\n;;Foo: 1\r\nin 1\r\nx-vis-color #ff0000 1\r\nknit + f1 1\r\nout 1\r\n"
     prog = parse_knitout(text, "w.k", warnings=warnings)
     assert [str(o) for o in prog.ops] == ["in 1", "knit + f1 1", "out 1"]
-    assert prog.ops[1].span.line == 5 and text[prog.ops[1].span.start:][:11] == "knit + f1 1"
+    assert prog.ops[1].span.line == 5 and text[prog.ops[1].span.start :][:11] == "knit + f1 1"
     messages = " | ".join(w.message for w in warnings)
     assert all(w.code == "W910" and w.warning for w in warnings)
     for part in ("CRLF", "version 9", "`;;Foo:`", "Carriers", "x-vis-color"):
@@ -310,14 +361,17 @@ def test_each_rule_rejects_a_bad_line_at_its_token(line, code, col, end, message
     assert message in e.message
 
 
-@pytest.mark.parametrize("text,line,message", [
-    ("", 1, "magic"),
-    (";!knitout-two\n;;Carriers: 1\n", 1, "magic"),
-    (";!knitout-2\n;;Gauge: 0\n", 2, "`;;Gauge:` must be a number greater than zero"),
-    (";!knitout-2\n;;Width: -5\n", 2, "`;;Width:` must be a positive integer"),
-    (";!knitout-2\n;;Position: Middle\n", 2, "Left, Center, Right or Keep"),
-    (";!knitout-2\n;;Carriers: 1 1\n", 2, "names a carrier twice"),
-])
+@pytest.mark.parametrize(
+    "text,line,message",
+    [
+        ("", 1, "magic"),
+        (";!knitout-two\n;;Carriers: 1\n", 1, "magic"),
+        (";!knitout-2\n;;Gauge: 0\n", 2, "`;;Gauge:` must be a number greater than zero"),
+        (";!knitout-2\n;;Width: -5\n", 2, "`;;Width:` must be a positive integer"),
+        (";!knitout-2\n;;Position: Middle\n", 2, "Left, Center, Right or Keep"),
+        (";!knitout-2\n;;Carriers: 1 1\n", 2, "names a carrier twice"),
+    ],
+)
 def test_header_errors(text, line, message):
     errors = errors_of(text)
     assert errors[0].code == "E910" and errors[0].line == line and message in errors[0].message
@@ -325,13 +379,13 @@ def test_header_errors(text, line, message):
 
 def test_state_rules_follow_the_carriers():
     # releasehook before a stitch, then a carrier used after it went out, reported once
-    errors = errors_of(HEADER + "inhook 3\nreleasehook 3\nknit + f1 3\nout 3\nknit + f1 3\n"
-                       "knit + f2 3\n")
+    errors = errors_of(
+        HEADER + "inhook 3\nreleasehook 3\nknit + f1 3\nout 3\nknit + f1 3\nknit + f2 3\n"
+    )
     assert [(e.code, e.line) for e in errors] == [("E915", 6), ("E915", 9)]
     assert "before it made a stitch" in errors[0].message
     # racking is tracked: aligned at rack 2, not after rack 0
-    assert parse_knitout(HEADER + "rack 2\nxfer f3 b1\n", "r.k").ops[-1].needle2 \
-        == Needle("b", 1)
+    assert parse_knitout(HEADER + "rack 2\nxfer f3 b1\n", "r.k").ops[-1].needle2 == Needle("b", 1)
     assert errors_of(HEADER + "rack 2\nrack 0\nxfer f3 b1\n")[0].code == "E916"
 
 

@@ -48,7 +48,7 @@ def ops_of(r, s: int, kind: str | None = None):
 
 def after(r, op):
     ops = list(r.program)
-    return ops[ops.index(op) + 1:]
+    return ops[ops.index(op) + 1 :]
 
 
 def racked_xfers(ops):
@@ -58,16 +58,20 @@ def racked_xfers(ops):
         if o.kind == "rack":
             rack = o.value
         elif o.kind == "xfer":
-            out.append((rack, f"{o.needle.bed}{o.needle.index}",
-                        f"{o.needle2.bed}{o.needle2.index}"))
+            out.append(
+                (rack, f"{o.needle.bed}{o.needle.index}", f"{o.needle2.bed}{o.needle2.index}")
+            )
     return out
 
 
 def before_cast_off(r, kind: str):
     """Ops of `kind` made for stitches below the last course (the cast-off transfers)."""
     last = r.graph.n_courses - 1
-    return [o for o in r.program if o.kind == kind and o.stitch >= 0
-            and int(r.graph.course[o.stitch]) < last]
+    return [
+        o
+        for o in r.program
+        if o.kind == kind and o.stitch >= 0 and int(r.graph.course[o.stitch]) < last
+    ]
 
 
 def warnings(r, code: str):
@@ -75,6 +79,7 @@ def warnings(r, code: str):
 
 
 # ---- T and M ------------------------------------------------------------------------------
+
 
 def test_a_tuck_keeps_the_old_loop_and_the_next_knit_takes_both():
     r = build(sheet("  set T where select(3, 4)"))
@@ -98,6 +103,7 @@ def test_a_miss_leaves_the_old_loop_and_floats_the_yarn():
 
 # ---- moves ----------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("instr, shift", [("FR1", 1), ("FL1", -1), ("FR2", 2), ("FL2", -2)])
 def test_a_front_move_carries_the_loop_and_leaves_an_eyelet(instr, shift):
     r = build(sheet(f"  set {instr} where select(3, 4)"))
@@ -116,8 +122,12 @@ def test_a_front_move_carries_the_loop_and_leaves_an_eyelet(instr, shift):
     for op in r.program.ops:
         if op.kind == "stitch_number":
             number = op.value
-        elif op.kind in ("knit", "tuck") and op.phase == "action" and op.stitch >= 0 \
-                and int(r.graph.course[op.stitch]) == 4:
+        elif (
+            op.kind in ("knit", "tuck")
+            and op.phase == "action"
+            and op.stitch >= 0
+            and int(r.graph.course[op.stitch]) == 4
+        ):
             numbers.add(number)
     assert len(numbers) == 1
 
@@ -132,8 +142,10 @@ def test_a_back_move_is_knitted_reversed_and_carried_from_the_back_bed():
 
 
 def test_right_is_read_from_each_beds_face_on_a_tube():
-    src = ("tube t { length: 6  width: 8  gauge: half }\n"
-           "pattern t { set FR1 where select(2, 2, front) or select(2, 2, back) }\n")
+    src = (
+        "tube t { length: 6  width: 8  gauge: half }\n"
+        "pattern t { set FR1 where select(2, 2, front) or select(2, 2, back) }\n"
+    )
     r = build(src)
     g = r.graph
     moved = np.nonzero(g.instr == INSTRUCTIONS.index("FR1"))[0]
@@ -168,8 +180,12 @@ def test_stack_puts_its_loop_back_on_top_of_the_one_that_arrives():
     _, n = needle(r, s)
     [knit] = ops_of(r, t, "knit")
     xs = racked_xfers(after(r, knit))[:4]
-    assert xs == [(0, f"f{n}", f"b{n}"), (0, f"f{n + 1}", f"b{n + 1}"),
-                  (1, f"b{n}", f"f{n + 1}"), (0, f"b{n + 1}", f"f{n + 1}")]
+    assert xs == [
+        (0, f"f{n}", f"b{n}"),
+        (0, f"f{n + 1}", f"b{n + 1}"),
+        (1, f"b{n}", f"f{n + 1}"),
+        (0, f"b{n + 1}", f"f{n + 1}"),
+    ]
 
 
 # ---- crosses --------------------------------------------------------------------------------
@@ -186,8 +202,12 @@ def test_a_cable_swaps_its_runs_upper_run_first():
     lift = {(0, f"f{n0 + i}", f"b{n0 + i}") for i in range(4)}
     assert set(xs[:4]) == lift
     # XR+ (upper) comes back first, two needles right; then XL-, two needles left
-    assert xs[4:8] == [(2, f"b{n0}", f"f{n0 + 2}"), (2, f"b{n0 + 1}", f"f{n0 + 3}"),
-                       (-2, f"b{n0 + 2}", f"f{n0}"), (-2, f"b{n0 + 3}", f"f{n0 + 1}")]
+    assert xs[4:8] == [
+        (2, f"b{n0}", f"f{n0 + 2}"),
+        (2, f"b{n0 + 1}", f"f{n0 + 3}"),
+        (-2, f"b{n0 + 2}", f"f{n0}"),
+        (-2, f"b{n0 + 3}", f"f{n0 + 1}"),
+    ]
     assert not warnings(r, "W709")
 
 
@@ -200,8 +220,11 @@ def test_a_lower_cable_brings_the_left_going_run_back_first():
 
 
 def test_relief_stitches_stay_between_the_runs():
-    r = build(sheet("  set XR+ where select(3, 2)\n  set P where select(3, 3)\n"
-                    "  set XL- where select(3, 4)"))
+    r = build(
+        sheet(
+            "  set XR+ where select(3, 2)\n  set P where select(3, 3)\n  set XL- where select(3, 4)"
+        )
+    )
     n0 = needle(r, stitch(r, 3, 2))[1]
     [knit] = ops_of(r, stitch(r, 3, 4), "knit")
     moved = {(a, b) for _, a, b in racked_xfers(after(r, knit))}
@@ -209,11 +232,14 @@ def test_relief_stitches_stay_between_the_runs():
     assert not warnings(r, "W709")
 
 
-@pytest.mark.parametrize("pattern", [
-    "  set XR+ where select(3, 2:3)",  # no complement
-    "  set XR+ where select(3, 2)\n  set XR- where select(3, 3)",  # not a complement
-    "  set XR+ where select(3, 2)\n  set K where select(3, 3)\n  set XL- where select(3, 4:5)",
-])
+@pytest.mark.parametrize(
+    "pattern",
+    [
+        "  set XR+ where select(3, 2:3)",  # no complement
+        "  set XR+ where select(3, 2)\n  set XR- where select(3, 3)",  # not a complement
+        "  set XR+ where select(3, 2)\n  set K where select(3, 3)\n  set XL- where select(3, 4:5)",
+    ],
+)
 def test_a_cross_without_its_complement_is_knitted_plain(pattern):
     r = build(sheet(pattern))
     assert warnings(r, "W709")
@@ -221,22 +247,28 @@ def test_a_cross_without_its_complement_is_knitted_plain(pattern):
 
 
 def test_a_cable_on_a_full_gauge_tube_waits_on_the_sliders():
-    r = build("tube t { length: 6  width: 8 }\n"
-              "pattern t { set XR+ where select(2, 2) and side(front)\n"
-              "            set XL- where select(2, 3) and side(front) }\n")
+    r = build(
+        "tube t { length: 6  width: 8 }\n"
+        "pattern t { set XR+ where select(2, 2) and side(front)\n"
+        "            set XL- where select(2, 3) and side(front) }\n"
+    )
     assert any(o.kind == "xfer" and o.needle2.bed == "bs" for o in r.program)
     assert not warnings(r, "W709")
 
 
 # ---- purls, refusals ----------------------------------------------------------------------
 
+
 def test_a_flat_rib_keeps_its_purl_loops_on_the_back_bed_between_courses():
-    r = build("import std.stitches (rib)\nsheet s { length: 10  width: 8 }\n"
-              "pattern s { apply rib(2, 2) }\n")
+    r = build(
+        "import std.stitches (rib)\nsheet s { length: 10  width: 8 }\n"
+        "pattern s { apply rib(2, 2) }\n"
+    )
     purls = int((r.graph.instr == INSTRUCTIONS.index("P")).sum())
     wales = 4  # purl wales of 8 stitches in rib(2, 2)
-    xfers = [o for o in before_cast_off(r, "xfer")
-             if r.graph.instr[o.stitch] == INSTRUCTIONS.index("P")]
+    xfers = [
+        o for o in before_cast_off(r, "xfer") if r.graph.instr[o.stitch] == INSTRUCTIONS.index("P")
+    ]
     # each purl wale goes to the back once, not twice per course (it comes home with the
     # last course, before the cast-off)
     assert purls == 10 * wales
@@ -244,9 +276,11 @@ def test_a_flat_rib_keeps_its_purl_loops_on_the_back_bed_between_courses():
 
 
 def test_instructions_on_shaping_are_ignored_and_point_at_the_designers_line():
-    src = ("import std.stitches (tuck_stitch)\n"
-           "sheet s { length: 10  width: [0: 12, 1: 6] }\n"
-           "pattern s {\n  apply tuck_stitch()\n}\n")
+    src = (
+        "import std.stitches (tuck_stitch)\n"
+        "sheet s { length: 10  width: [0: 12, 1: 6] }\n"
+        "pattern s {\n  apply tuck_stitch()\n}\n"
+    )
     r = build(src)
     [w] = [w for w in warnings(r, "W708") if "decrease" in w.message]
     assert w.span.line == 4 and w.span.file == "t.knit"
@@ -254,8 +288,9 @@ def test_instructions_on_shaping_are_ignored_and_point_at_the_designers_line():
 
 
 def test_purls_on_a_full_gauge_tube_warn_at_the_pattern_line():
-    r = build("import std.stitches (rib)\ntube t { length: 3  width: 4 }\n"
-              "pattern t { apply rib(1, 1) }\n")
+    r = build(
+        "import std.stitches (rib)\ntube t { length: 3  width: 4 }\npattern t { apply rib(1, 1) }\n"
+    )
     [w] = warnings(r, "W603")
     assert w.span.line == 3 and "half gauge" in (w.hint or "")
 
@@ -266,19 +301,27 @@ CODES = ["K", "P", "T", "M", "FR1", "FR2", "FL1", "FL2", "BR1", "BL1", "XR+", "X
 
 
 @SETTINGS
-@given(st.lists(st.tuples(st.sampled_from(CODES), st.integers(0, 7), st.integers(0, 9)),
-                min_size=1, max_size=16),
-       st.booleans(), st.booleans())
+@given(
+    st.lists(
+        st.tuples(st.sampled_from(CODES), st.integers(0, 7), st.integers(0, 9)),
+        min_size=1,
+        max_size=16,
+    ),
+    st.booleans(),
+    st.booleans(),
+)
 def test_the_instruction_check_only_resets_to_knit_and_is_idempotent(writes, tube, shaped):
     """`check_instructions` never writes an instruction the pattern did not, never touches
     anything but `instr`, and a second run changes nothing (what it keeps is knittable)."""
     width = "[0: 5, 1: 8]" if shaped else "5"
-    shape = (f"tube s {{ length: 8  width: {width}  gauge: half }}" if tube else
-             f"sheet s {{ length: 8  width: {width} }}")
+    shape = (
+        f"tube s {{ length: 8  width: {width}  gauge: half }}"
+        if tube
+        else f"sheet s {{ length: 8  width: {width} }}"
+    )
     body = "\n".join(f"  set {c} where select({course}, {w})" for c, course, w in writes)
     r = compile_source(f"{shape}\npattern s {{\n{body}\n}}\n", "t.knit", until="skeleton")
-    raw = apply_patterns(r.skeleton, build_stitch_graph(r.skeleton, Diagnostics()),
-                         Diagnostics())
+    raw = apply_patterns(r.skeleton, build_stitch_graph(r.skeleton, Diagnostics()), Diagnostics())
     checked = check_instructions(raw, Diagnostics())
     changed = checked.instr != raw.instr
     assert (checked.instr[changed] == 0).all()
@@ -290,13 +333,21 @@ def test_the_instruction_check_only_resets_to_knit_and_is_idempotent(writes, tub
 
 
 @SETTINGS
-@given(st.lists(st.tuples(st.sampled_from(CODES), st.integers(1, 6), st.integers(0, 9)),
-                min_size=1, max_size=12),
-       st.booleans())
+@given(
+    st.lists(
+        st.tuples(st.sampled_from(CODES), st.integers(1, 6), st.integers(0, 9)),
+        min_size=1,
+        max_size=12,
+    ),
+    st.booleans(),
+)
 def test_any_instructions_compile_and_keep_the_stitches(writes, tube):
     body = "\n".join(f"  set {c} where select({course}, {w})" for c, course, w in writes)
-    src = ("tube s { length: 8  width: 5  gauge: half }\n" if tube else
-           "sheet s { length: 8  width: 10 }\n") + f"pattern s {{\n{body}\n}}\n"
+    src = (
+        "tube s { length: 8  width: 5  gauge: half }\n"
+        if tube
+        else "sheet s { length: 8  width: 10 }\n"
+    ) + f"pattern s {{\n{body}\n}}\n"
     plain = compile_source(src.split("pattern")[0], "t.knit", until="stitch-graph").graph
     r = compile_source(src, "t.knit", until="machine")
     assert not r.diagnostics.has_errors, r.diagnostics.render()
@@ -317,8 +368,7 @@ ORACLE_DESIGNS = [
     sheet("  set FR1 where select(3, 3)\n  set S where select(3, 4)"),
     sheet(CABLE),
     sheet("  set XR- where select(3, 2)\n  set XL+ where select(3, 3)"),
-    sheet("  set XR+ where select(3, 2)\n  set P where select(3, 3)\n"
-          "  set XL- where select(3, 4)"),
+    sheet("  set XR+ where select(3, 2)\n  set P where select(3, 3)\n  set XL- where select(3, 4)"),
     "tube t { length: 6  width: 8  gauge: half }\n"
     "pattern t { set FR1 where select(2, 2, front) or select(2, 2, back) }\n",
     "tube t { length: 6  width: 8 }\n"

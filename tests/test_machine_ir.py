@@ -36,8 +36,16 @@ def row_span(file: str, line: int) -> Span:
 
 # ---- sample programs ------------------------------------------------------------------------
 
-def flat_swatch(n: int = 8, rows: int = 6, carrier: int = 3, *, drops: bool = True,
-                outhook: bool = True, release: bool = True) -> MachineProgram:
+
+def flat_swatch(
+    n: int = 8,
+    rows: int = 6,
+    carrier: int = 3,
+    *,
+    drops: bool = True,
+    outhook: bool = True,
+    release: bool = True,
+) -> MachineProgram:
     """A stockinette swatch on f1..fn: inhook, alternating tuck cast-on (leftward first),
     knit rows, releasehook after two rows, drops, outhook. Row r has span line r + 2 of
     swatch.knit; the stitch of needle k in row r is r * n + k - 1."""
@@ -77,8 +85,7 @@ def tube_round(p: MachineProgram, w: int, carrier: int, line: int) -> None:
             p.knit(+1, Needle("f", 2 * i), carrier)
 
 
-def half_gauge_tube(w: int = 6, carrier: int = 5, *, shaping_rack: bool = True
-                    ) -> MachineProgram:
+def half_gauge_tube(w: int = 6, carrier: int = 5, *, shaping_rack: bool = True) -> MachineProgram:
     """A half-gauge tube: front stitches on even needles f2..f(2w), back stitches on odd
     needles b3..b(2w+1), so no two face each other at racking 0. Cast on in four passes,
     two rounds, releasehook, two rounds, then a shaping step that narrows both beds by one
@@ -135,9 +142,11 @@ def half_gauge_tube(w: int = 6, carrier: int = 5, *, shaping_rack: bool = True
 
 # ---- needles ----------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("text, bed, index", [("f12", "f", 12), ("b0", "b", 0),
-                                              ("fs3", "fs", 3), ("bs40", "bs", 40),
-                                              ("f-2", "f", -2)])
+
+@pytest.mark.parametrize(
+    "text, bed, index",
+    [("f12", "f", 12), ("b0", "b", 0), ("fs3", "fs", 3), ("bs40", "bs", 40), ("f-2", "f", -2)],
+)
 def test_needle_parse_and_str(text, bed, index):
     n = Needle.parse(text)
     assert n == Needle(bed, index) and str(n) == text
@@ -172,11 +181,18 @@ def test_racking_convention():
 
 
 def test_format_number():
-    assert [format_number(v) for v in (2, -1, 0, 2.0, 0.25, -0.75)] == \
-        ["2", "-1", "0", "2", "0.25", "-0.75"]
+    assert [format_number(v) for v in (2, -1, 0, 2.0, 0.25, -0.75)] == [
+        "2",
+        "-1",
+        "0",
+        "2",
+        "0.25",
+        "-0.75",
+    ]
 
 
 # ---- ops and the builder --------------------------------------------------------------------
+
 
 def test_op_text_for_every_kind():
     p = MachineProgram()
@@ -200,10 +216,25 @@ def test_op_text_for_every_kind():
     p.out(4)
     p.outhook((3, 5))
     assert [str(op) for op in p] == [
-        "in 4 5", "inhook 3", "knit + f3 3", "tuck - b4 3 4", "split + f3 b3 3", "xfer f3 b3",
-        "drop f3", "miss - f0 3", "amiss b7", "rack 0.25", "x-stitch-number 61",
-        "stitch 10 15", "x-speed-number 3", "x-presser-mode auto", "pause", "; hello", "releasehook 3",
-        "out 4", "outhook 3 5",
+        "in 4 5",
+        "inhook 3",
+        "knit + f3 3",
+        "tuck - b4 3 4",
+        "split + f3 b3 3",
+        "xfer f3 b3",
+        "drop f3",
+        "miss - f0 3",
+        "amiss b7",
+        "rack 0.25",
+        "x-stitch-number 61",
+        "stitch 10 15",
+        "x-speed-number 3",
+        "x-presser-mode auto",
+        "pause",
+        "; hello",
+        "releasehook 3",
+        "out 4",
+        "outhook 3 5",
     ]
     assert {op.kind for op in p} == set(KINDS)
     assert verify(p) == []
@@ -226,9 +257,14 @@ def test_rack_and_settings_are_elided():
     assert p.stitch_number(62) is not None
     assert p.speed(0) is not None and p.speed(0) is None
     assert p.presser("on") is not None and p.presser("on") is None
-    assert [str(op) for op in p] == ["rack 1", "rack 1", "x-stitch-number 61",
-                                     "x-stitch-number 62", "x-speed-number 0",
-                                     "x-presser-mode on"]
+    assert [str(op) for op in p] == [
+        "rack 1",
+        "rack 1",
+        "x-stitch-number 61",
+        "x-stitch-number 62",
+        "x-speed-number 0",
+        "x-presser-mode on",
+    ]
     assert isinstance(p.ops[0].value, int)  # whole racks print without ".0"
 
 
@@ -245,8 +281,14 @@ def test_xfer_auto_rack():
     p.xfer("b3", "f2", auto_rack=True)
     p.xfer("f2", "b3", auto_rack=True)  # still -1: no second rack
     p.xfer("f2", "b2", auto_rack=True)
-    assert [str(op) for op in p] == ["xfer f3 b3", "rack -1", "xfer b3 f2", "xfer f2 b3",
-                                     "rack 0", "xfer f2 b2"]
+    assert [str(op) for op in p] == [
+        "xfer f3 b3",
+        "rack -1",
+        "xfer b3 f2",
+        "xfer f2 b3",
+        "rack 0",
+        "xfer f2 b2",
+    ]
 
 
 def test_provenance_context():
@@ -273,20 +315,38 @@ def test_ops_are_frozen_and_hashable():
     op = Op("knit", 1, Needle("f", 1), None, (3,), stitch=2, span=row_span("a.knit", 1))
     with pytest.raises(AttributeError):
         op.kind = "tuck"  # type: ignore[misc]
-    assert len({op, Op("knit", 1, Needle("f", 1), None, (3,), stitch=2,
-                       span=row_span("a.knit", 1))}) == 1
+    assert (
+        len({op, Op("knit", 1, Needle("f", 1), None, (3,), stitch=2, span=row_span("a.knit", 1))})
+        == 1
+    )
 
 
 # ---- stats and JSON ---------------------------------------------------------------------------
 
+
 def test_stats_of_the_swatch():
     p = flat_swatch()
     s = p.stats()
-    assert list(s) == ["ops", "kinds", "passes", "carriers", "needles", "needle_range",
-                       "racking", "stitches"]
+    assert list(s) == [
+        "ops",
+        "kinds",
+        "passes",
+        "carriers",
+        "needles",
+        "needle_range",
+        "racking",
+        "stitches",
+    ]
     assert s["ops"] == len(p) == 1 + 1 + 8 + 48 + 1 + 8 + 1
-    assert s["kinds"] == {"inhook": 1, "releasehook": 1, "outhook": 1, "knit": 48, "tuck": 8,
-                          "drop": 8, "stitch_number": 1}
+    assert s["kinds"] == {
+        "inhook": 1,
+        "releasehook": 1,
+        "outhook": 1,
+        "knit": 48,
+        "tuck": 8,
+        "drop": 8,
+        "stitch_number": 1,
+    }
     # 2 cast-on passes, 6 rows, 1 drop pass (the oracle agrees: test_knitout_backend)
     assert s["passes"] == 9
     assert s["carriers"] == [3]
@@ -307,6 +367,7 @@ def test_stats_of_the_tube():
 def test_pass_estimate_rules():
     def passes(*lines: str) -> int:
         from knitc.backends.knitout import read_knitout
+
         return estimate_passes(read_knitout("\n".join(lines)).ops)
 
     assert passes("knit + f1 3", "knit + f2 3", "knit + f3 3") == 1
@@ -326,12 +387,23 @@ def test_to_json_stats_first_and_stable():
     p = half_gauge_tube()
     d = to_json(p)
     assert list(d) == ["stats", "machine", "position", "ops"]
-    assert d["machine"] == {"name": "SWG091N2", "needles": 541, "gauge": 15,
-                            "racking_limit": 4, "carriers": 10, "max_carriers_per_op": 2}
+    assert d["machine"] == {
+        "name": "SWG091N2",
+        "needles": 541,
+        "gauge": 15,
+        "racking_limit": 4,
+        "carriers": 10,
+        "max_carriers_per_op": 2,
+    }
     assert d["ops"][0] == {"op": "inhook", "carriers": [5], "span": ["tube.knit", 1, 3, 1, 20]}
     knit = next(o for o in d["ops"] if o["op"] == "knit")
-    assert knit == {"op": "knit", "dir": "-", "needle": "b13", "carriers": [5],
-                    "span": ["tube.knit", 2, 3, 2, 20]}
+    assert knit == {
+        "op": "knit",
+        "dir": "-",
+        "needle": "b13",
+        "carriers": [5],
+        "span": ["tube.knit", 2, 3, 2, 20],
+    }
     assert {"op": "rack", "value": -2, "span": ["tube.knit", 6, 3, 6, 20]} in d["ops"]
     text = json.dumps(d, indent=1, allow_nan=False)
     assert text == json.dumps(to_json(half_gauge_tube()), indent=1, allow_nan=False)
@@ -347,35 +419,39 @@ def test_swatch_ops_carry_provenance():
 
 # ---- verifier ---------------------------------------------------------------------------------
 
+
 def test_sample_programs_verify():
     assert verify(flat_swatch()) == [] and verify(half_gauge_tube()) == []
     assert verify(flat_swatch()) == []
 
 
-@pytest.mark.parametrize("op, message", [
-    (Op("knit", 1, Needle("f", 1)), "carriers missing"),
-    (Op("knit", 0, Needle("f", 1), None, (3,)), "direction 0 is not"),
-    (Op("knit", 1, None, None, (3,)), "needle missing"),
-    (Op("drop", 0, Needle("f", 1), None, (3,)), "carriers not allowed"),
-    (Op("drop", 1, Needle("f", 1)), "direction not allowed"),
-    (Op("xfer", 0, Needle("f", 1), Needle("fs", 1)), "on the same bed"),
-    (Op("xfer", 0, Needle("f", 1)), "second needle missing"),
-    (Op("split", 1, Needle("f", 1), Needle("b", 1)), "carriers missing"),
-    (Op("knit", 1, Needle("f", 1), None, (1, 2, 3)), "3 carriers in one op"),
-    (Op("knit", 1, Needle("f", 1), None, (11,)), "outside 1..10"),
-    (Op("knit", 1, Needle("f", 1), None, (3, 3)), "listed twice"),
-    (Op("in", 0, None, None, ()), "carriers missing"),
-    (Op("in", 0, Needle("f", 1), None, (3,)), "needle not allowed"),
-    (Op("rack", value="2"), "is not a number"),
-    (Op("rack", value=float("nan")), "is not a number"),
-    (Op("stitch_number", value=-1), "non-negative integer"),
-    (Op("presser", value="sometimes"), "not on, off or auto"),
-    (Op("comment"), "comment text missing"),
-    (Op("drop", 0, Needle("f", 1), value=3), "value not allowed"),
-    (Op("knit", 1, Needle("x", 1), None, (3,)), "bad needle"),
-    (Op("knot", 1, Needle("f", 1), None, (3,)), "unknown kind"),
-    (Op("knit", 1, Needle("f", 1), None, (3,), stitch=-5), "not an id"),
-])
+@pytest.mark.parametrize(
+    "op, message",
+    [
+        (Op("knit", 1, Needle("f", 1)), "carriers missing"),
+        (Op("knit", 0, Needle("f", 1), None, (3,)), "direction 0 is not"),
+        (Op("knit", 1, None, None, (3,)), "needle missing"),
+        (Op("drop", 0, Needle("f", 1), None, (3,)), "carriers not allowed"),
+        (Op("drop", 1, Needle("f", 1)), "direction not allowed"),
+        (Op("xfer", 0, Needle("f", 1), Needle("fs", 1)), "on the same bed"),
+        (Op("xfer", 0, Needle("f", 1)), "second needle missing"),
+        (Op("split", 1, Needle("f", 1), Needle("b", 1)), "carriers missing"),
+        (Op("knit", 1, Needle("f", 1), None, (1, 2, 3)), "3 carriers in one op"),
+        (Op("knit", 1, Needle("f", 1), None, (11,)), "outside 1..10"),
+        (Op("knit", 1, Needle("f", 1), None, (3, 3)), "listed twice"),
+        (Op("in", 0, None, None, ()), "carriers missing"),
+        (Op("in", 0, Needle("f", 1), None, (3,)), "needle not allowed"),
+        (Op("rack", value="2"), "is not a number"),
+        (Op("rack", value=float("nan")), "is not a number"),
+        (Op("stitch_number", value=-1), "non-negative integer"),
+        (Op("presser", value="sometimes"), "not on, off or auto"),
+        (Op("comment"), "comment text missing"),
+        (Op("drop", 0, Needle("f", 1), value=3), "value not allowed"),
+        (Op("knit", 1, Needle("x", 1), None, (3,)), "bad needle"),
+        (Op("knot", 1, Needle("f", 1), None, (3,)), "unknown kind"),
+        (Op("knit", 1, Needle("f", 1), None, (3,), stitch=-5), "not an id"),
+    ],
+)
 def test_verifier_rejects(op, message):
     p = MachineProgram(ops=[op])
     problems = verify(p)
@@ -394,8 +470,17 @@ needles = st.builds(Needle, st.sampled_from(["f", "b"]), st.integers(0, 40))
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.lists(st.tuples(st.sampled_from(["knit", "tuck", "xfer", "drop", "rack"]), needles,
-                          st.sampled_from([1, -1]), st.integers(-4, 4)), max_size=40))
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from(["knit", "tuck", "xfer", "drop", "rack"]),
+            needles,
+            st.sampled_from([1, -1]),
+            st.integers(-4, 4),
+        ),
+        max_size=40,
+    )
+)
 def test_builder_output_is_well_formed_and_rack_never_redundant(steps):
     p = MachineProgram()
     for kind, n, d, r in steps:

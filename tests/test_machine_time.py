@@ -18,8 +18,9 @@ from knitc.codegen.machine import estimate_passes
 from knitc.driver import compile_file, compile_source
 
 REPO = Path(__file__).resolve().parent.parent
-DESIGNS = sorted((REPO / "examples").glob("*.knit")) + \
-    sorted((REPO / "examples" / "knitskel").glob("*.knit"))
+DESIGNS = sorted((REPO / "examples").glob("*.knit")) + sorted(
+    (REPO / "examples" / "knitskel").glob("*.knit")
+)
 
 
 def rows(r) -> dict[str, int]:
@@ -28,8 +29,9 @@ def rows(r) -> dict[str, int]:
     out = {"knit": 0, "xfer": 0, "move": 0}
     for p in to_dat(r.program).passes:
         codes = set(p.slots.values())
-        out["move" if codes <= {SOFT_MISS} else
-            "xfer" if codes & {XFER_FB, XFER_BF} else "knit"] += 1
+        out[
+            "move" if codes <= {SOFT_MISS} else "xfer" if codes & {XFER_FB, XFER_BF} else "knit"
+        ] += 1
     return out
 
 
@@ -67,8 +69,11 @@ def test_a_yarn_start_needs_no_empty_pass_before_its_release():
             tucks.append(o.dir)
     assert all(z[0] == -1 and all(a == -b for a, b in zip(z, z[1:])) for z in zigzags)
     assert any(z[-1] == 1 for z in zigzags)
-    empty = [p for p in to_dat(r.program).passes  # no yarn (R3), no hook action (R15)
-             if p.get("R3") == 255 and p.get("R15") == 0 and set(p.slots.values()) <= {SOFT_MISS}]
+    empty = [
+        p
+        for p in to_dat(r.program).passes  # no yarn (R3), no hook action (R15)
+        if p.get("R3") == 255 and p.get("R15") == 0 and set(p.slots.values()) <= {SOFT_MISS}
+    ]
     assert len(empty) == sum(z[-1] == -1 for z in zigzags)
 
 
@@ -77,9 +82,13 @@ def test_a_half_gauge_rib_tube_moves_no_carrier_between_rounds():
     # next round's first needle: the pass ends past it (a lead-out miss), so the carrier
     # needs no row of its own to get back (it needed two per round)
     def moves(length: int) -> int:
-        return rows(build("import std.stitches (rib)\n"
-                          f"tube t {{ length: {length}  width: 12  gauge: half }}\n"
-                          "pattern t { apply rib(1, 1) }\n"))["move"]
+        return rows(
+            build(
+                "import std.stitches (rib)\n"
+                f"tube t {{ length: {length}  width: 12  gauge: half }}\n"
+                "pattern t { apply rib(1, 1) }\n"
+            )
+        )["move"]
 
     # the yarn's insertion, release and removal, and the bind-off: none per round
     assert moves(30) == moves(60) <= 8
@@ -89,9 +98,13 @@ def test_kickback_increases_move_no_carrier_on_their_own():
     # the kickback's carrier passes the needle in the pass (a miss), then tucks it coming
     # back: no carrier row before each kickback
     def moves(grow: int) -> int:
-        return rows(build("machine { increase: kickback }\n"
-                          f"tube t {{ length: 20  width: [0: 10, 1: {10 + grow}]  "
-                          "shaper: sides }\n"))["move"]
+        return rows(
+            build(
+                "machine { increase: kickback }\n"
+                f"tube t {{ length: 20  width: [0: 10, 1: {10 + grow}]  "
+                "shaper: sides }\n"
+            )
+        )["move"]
 
     assert moves(10) == moves(0)
 
@@ -101,15 +114,18 @@ def test_loops_coming_back_from_the_sliders_make_one_row_per_bed():
     # the back loops on the front ones; each racking's returns go bed by bed, one row each
     r = build("tube t { length: 12  width: [0: 10, 1: 16]  shaper: left }\n")
     k = rows(r)
-    assert k["xfer"] <= 1.05 * estimate_passes([o for o in r.program.ops
-                                               if o.kind in ("xfer", "rack")])
+    assert k["xfer"] <= 1.05 * estimate_passes(
+        [o for o in r.program.ops if o.kind in ("xfer", "rack")]
+    )
 
 
 def test_a_gauge_change_lays_its_new_loops_in_the_pass():
     # half gauge into full gauge doubles the loops: the new ones are tucked in the pass,
     # every other needle, not kicked back one by one (six rows each)
-    r = build("tube a { length: 3  width: 8  gauge: half }\ntube b { length: 3  width: 16 }\n"
-              "a.top -> b.bottom\n")
+    r = build(
+        "tube a { length: 3  width: 8  gauge: half }\ntube b { length: 3  width: 16 }\n"
+        "a.top -> b.bottom\n"
+    )
     assert sum(rows(r).values()) <= 1.1 * estimate_passes(r.program.ops)
     kicks = [o for o in r.program.ops if o.kind == "tuck" and o.phase == "action"]
     assert kicks and all(o.dir == 1 or o.dir == -1 for o in kicks)

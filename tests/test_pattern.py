@@ -32,10 +32,13 @@ def build(src: str, until: str = "machine"):
     return r
 
 
-@pytest.mark.parametrize("src", [
-    RIB + "tube t { length: 4  width: 6  gauge: half }\npattern t { apply rib(1, 1) }\n",
-    RIB + "sheet s { length: 4  width: 8 }\npattern s { apply rib(2, 1) }\n",
-])
+@pytest.mark.parametrize(
+    "src",
+    [
+        RIB + "tube t { length: 4  width: 6  gauge: half }\npattern t { apply rib(1, 1) }\n",
+        RIB + "sheet s { length: 4  width: 8 }\npattern s { apply rib(2, 1) }\n",
+    ],
+)
 def test_rib_purls_every_wale_the_definition_says(src):
     r = build(src, "stitch-graph")
     k, p = (1, 1) if "rib(1, 1)" in src else (2, 1)
@@ -44,14 +47,17 @@ def test_rib_purls_every_wale_the_definition_says(src):
 
 
 def test_later_layers_win_and_global_layers_wrap_node_layers():
-    src = ("sheet s { length: 3  width: 6 }\n"
-           "pattern before { set P }\n"
-           "pattern s { set K where courses(0) }\n"
-           "pattern after { set T where wales(0) and courses(0:1) }\n")
+    src = (
+        "sheet s { length: 3  width: 6 }\n"
+        "pattern before { set P }\n"
+        "pattern s { set K where courses(0) }\n"
+        "pattern after { set T where wales(0) and courses(0:1) }\n"
+    )
     g = build(src, "stitch-graph").graph
     c = coords(g)
-    want = np.where((c.wale == 0) & (c.course < 2), INSTRUCTIONS.index("T"),
-                    np.where(c.course == 0, 0, P))
+    want = np.where(
+        (c.wale == 0) & (c.course < 2), INSTRUCTIONS.index("T"), np.where(c.course == 0, 0, P)
+    )
     assert np.array_equal(g.instr, want)
 
 
@@ -85,15 +91,19 @@ def test_purls_on_a_full_gauge_tube_are_knitted_plain():
 
 
 def test_patterned_programs_knit_their_design_on_the_independent_machine():
-    results = [build(RIB + src) for src in (
-        "tube t { length: 4  width: 6  gauge: half }\npattern t { apply rib(1, 1) }\n",
-        "sheet s { length: 4  width: 8 }\npattern s { apply rib(2, 2) }\n",
-        "sheet s { length: 5  width: [0: 8, 1: 6] }\npattern s { apply rib(1, 1) }\n",
-        "tube t { length: 3  width: 4  gauge: half }\npattern t { apply rib(1, 1) }\n",
-    )]
+    results = [
+        build(RIB + src)
+        for src in (
+            "tube t { length: 4  width: 6  gauge: half }\npattern t { apply rib(1, 1) }\n",
+            "sheet s { length: 4  width: 8 }\npattern s { apply rib(2, 2) }\n",
+            "sheet s { length: 5  width: [0: 8, 1: 6] }\npattern s { apply rib(1, 1) }\n",
+            "tube t { length: 3  width: 4  gauge: half }\npattern t { apply rib(1, 1) }\n",
+        )
+    ]
     results.append(build(FULL_GAUGE_RIB))
-    sweater = build(Path(__file__).resolve().parent.parent.joinpath("examples", "sweater.knit")
-                    .read_text())
+    sweater = build(
+        Path(__file__).resolve().parent.parent.joinpath("examples", "sweater.knit").read_text()
+    )
     # its ribs are half-gauge tubes: every purl finds its facing needle free (the new
     # yarns' catching tucks keep off those needles)
     assert not [d for d in sweater.diagnostics if d.code == "W603"]
@@ -107,10 +117,23 @@ def test_patterned_programs_knit_their_design_on_the_independent_machine():
 def test_patterns_never_create_or_delete_stitches(prog):
     r, patterned = compile_graph(prog)
     raw = build_stitch_graph(r.skeleton, Diagnostics())
-    again = check_instructions(apply_patterns(r.skeleton, raw, Diagnostics()), Diagnostics(),
-                               racking=r.skeleton.machine.racking)
-    for name in ("node", "course", "side", "needle", "cprev", "cnext", "wale_prev",
-                 "wale_next", "course_start", "course_len"):
+    again = check_instructions(
+        apply_patterns(r.skeleton, raw, Diagnostics()),
+        Diagnostics(),
+        racking=r.skeleton.machine.racking,
+    )
+    for name in (
+        "node",
+        "course",
+        "side",
+        "needle",
+        "cprev",
+        "cnext",
+        "wale_prev",
+        "wale_next",
+        "course_start",
+        "course_len",
+    ):
         assert np.array_equal(getattr(again, name), getattr(raw, name)), name
     assert np.array_equal(again.instr, patterned.instr)  # the driver runs the same pass
     assert again.instr.max(initial=0) < len(INSTRUCTIONS)
@@ -119,9 +142,11 @@ def test_patterns_never_create_or_delete_stitches(prog):
 def test_an_applied_pattern_counts_from_the_corner_of_its_selection():
     """rib(1, 1) on wales 3..8 starts with a knit wale at wale 3 (not where the node's own
     wale parity would put it), and garter's first purl course is the selection's second."""
-    src = ("import std.stitches (rib, garter)\nsheet s { length: 8  width: 12 }\n"
-           "pattern s {\n  apply rib(1, 1) where wales(3:8) and courses(0:3)\n"
-           "  apply garter() where courses(5:7)\n}\n")
+    src = (
+        "import std.stitches (rib, garter)\nsheet s { length: 8  width: 12 }\n"
+        "pattern s {\n  apply rib(1, 1) where wales(3:8) and courses(0:3)\n"
+        "  apply garter() where courses(5:7)\n}\n"
+    )
     g = build(src, "stitch-graph").graph
     c = coords(g)
     rib = (c.wale >= 3) & (c.wale <= 8) & (c.course <= 3)
@@ -131,15 +156,20 @@ def test_an_applied_pattern_counts_from_the_corner_of_its_selection():
 
 def test_a_warning_inside_nested_definitions_points_at_the_designers_line_with_each_step():
     from knitc.driver import compile_source
-    src = ("pattern inner() { set T where courses(end) }\n"
-           "pattern outer() { apply inner() }\n"
-           "sheet s { length: 3  width: 4 }\n"
-           "pattern s { apply outer() }\n")
+
+    src = (
+        "pattern inner() { set T where courses(end) }\n"
+        "pattern outer() { apply inner() }\n"
+        "sheet s { length: 3  width: 4 }\n"
+        "pattern s { apply outer() }\n"
+    )
     r = compile_source(src, "n.knit", until="stitch-graph")
     (w,) = [d for d in r.diagnostics if d.code == "W708"]
     assert (w.span.line, w.span.parent) == (4, None)  # the designer's `apply outer()`
     assert [(n.span.line, n.message) for n in w.notes] == [
-        (2, "written here, in the applied pattern"), (1, "written here, in the applied pattern")]
+        (2, "written here, in the applied pattern"),
+        (1, "written here, in the applied pattern"),
+    ]
     g = r.graph
     chained = g.spans[int(g.origin[g.course_ids(2)[0]])]
     assert [s.line for s in chained.chain()] == [4, 2, 1]  # one mechanism: Span.parent

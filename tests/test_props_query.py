@@ -36,27 +36,43 @@ def call(name, *args):
 
 
 END = ast.Name(id="end")
-bounds = st.one_of(st.integers(-12, 12).map(N), st.sampled_from([0.25, 0.5, 0.75]).map(N),
-                   st.just(END), st.integers(0, 5).map(lambda k: ast.Binary("-", END, N(k))))
-ranges = st.builds(lambda a, b, s: ast.Range(a, b, None if s == 1 else N(s)),
-                   bounds, bounds, st.integers(1, 3))
+bounds = st.one_of(
+    st.integers(-12, 12).map(N),
+    st.sampled_from([0.25, 0.5, 0.75]).map(N),
+    st.just(END),
+    st.integers(0, 5).map(lambda k: ast.Binary("-", END, N(k))),
+)
+ranges = st.builds(
+    lambda a, b, s: ast.Range(a, b, None if s == 1 else N(s)), bounds, bounds, st.integers(1, 3)
+)
 sides = st.sampled_from(["front", "back"]).map(lambda s: ast.Name(id=s))
 atoms = st.one_of(
-    st.just(call("all")), st.just(call("boundaries")), st.just(call("named")),
-    ranges.map(lambda r: call("wales", r)), ranges.map(lambda r: call("courses", r)),
+    st.just(call("all")),
+    st.just(call("boundaries")),
+    st.just(call("named")),
+    ranges.map(lambda r: call("wales", r)),
+    ranges.map(lambda r: call("courses", r)),
     st.builds(lambda r, s: call("wales", r, s), ranges, sides),
     st.builds(lambda a, b: call("select", a, b), ranges, ranges),
     sides.map(lambda s: call("side", s)),
-    st.integers(2, 4).map(lambda k: call("filter", ast.Binary(
-        "==", ast.Binary("%", ast.Name(id="wale"), N(k)), N(0)))),
+    st.integers(2, 4).map(
+        lambda k: call("filter", ast.Binary("==", ast.Binary("%", ast.Name(id="wale"), N(k)), N(0)))
+    ),
 )
-queries = st.recursive(atoms, lambda q: st.one_of(
-    st.builds(lambda a, b, op: ast.Binary(op, a, b), q, q, st.sampled_from(["or", "and", "-"])),
-    q.map(lambda a: ast.Unary("not", a)),
-    st.builds(lambda a, k: ast.Call(func=ast.Attr(a, ast.Ident(name="neighbors")),
-                                    args=(N(k),)), q, st.integers(1, 2)),
-    q.map(lambda a: ast.Call(func=ast.Attr(a, ast.Ident(name="boundaries")), args=())),
-), max_leaves=6)
+queries = st.recursive(
+    atoms,
+    lambda q: st.one_of(
+        st.builds(lambda a, b, op: ast.Binary(op, a, b), q, q, st.sampled_from(["or", "and", "-"])),
+        q.map(lambda a: ast.Unary("not", a)),
+        st.builds(
+            lambda a, k: ast.Call(func=ast.Attr(a, ast.Ident(name="neighbors")), args=(N(k),)),
+            q,
+            st.integers(1, 2),
+        ),
+        q.map(lambda a: ast.Call(func=ast.Attr(a, ast.Ident(name="boundaries")), args=())),
+    ),
+    max_leaves=6,
+)
 nodes = st.sampled_from([0, 1, None])
 
 
@@ -81,10 +97,13 @@ def test_set_algebra_laws(node, a, b):
     assert np.array_equal(ev(node, ast.Binary("or", a, b)), ev(node, ast.Binary("or", b, a)))
     assert np.array_equal(ev(node, ast.Binary("and", a, b)), A & B)
     assert np.array_equal(ev(node, ast.Unary("not", ast.Unary("not", a))), A)
-    assert np.array_equal(ev(node, ast.Binary("-", a, b)),
-                          ev(node, ast.Binary("and", a, ast.Unary("not", b))))
-    assert np.array_equal(ev(node, ast.Unary("not", ast.Binary("or", a, b))),
-                          ev(node, ast.Binary("and", ast.Unary("not", a), ast.Unary("not", b))))
+    assert np.array_equal(
+        ev(node, ast.Binary("-", a, b)), ev(node, ast.Binary("and", a, ast.Unary("not", b)))
+    )
+    assert np.array_equal(
+        ev(node, ast.Unary("not", ast.Binary("or", a, b))),
+        ev(node, ast.Binary("and", ast.Unary("not", a), ast.Unary("not", b))),
+    )
     assert np.array_equal(ev(node, ast.Unary("not", a)), dom & ~A)
 
 
@@ -92,8 +111,9 @@ def test_set_algebra_laws(node, a, b):
 @given(nodes, queries, st.integers(1, 2))
 def test_neighbors_and_boundaries_shapes(node, a, k):
     A = ev(node, a)
-    grown = ev(node, ast.Call(func=ast.Attr(a, ast.Ident(name="neighbors")),
-                              args=(ast.Range(N(0), N(k)),)))
+    grown = ev(
+        node, ast.Call(func=ast.Attr(a, ast.Ident(name="neighbors")), args=(ast.Range(N(0), N(k)),))
+    )
     ring = ev(node, ast.Call(func=ast.Attr(a, ast.Ident(name="neighbors")), args=(N(k),)))
     assert np.array_equal(grown & ~A, ring) and not (ring & A).any()
     assert (A & ~grown).sum() == 0
@@ -109,13 +129,18 @@ def test_negative_bounds_equal_explicit_end(node, k, j, kind):
     neg = call(kind, ast.Range(N(-k), N(-j - 1)))
     explicit = call(kind, ast.Range(ast.Binary("-", END, N(k - 1)), ast.Binary("-", END, N(j))))
     assert np.array_equal(ev(node, neg), ev(node, explicit))
-    assert np.array_equal(ev(node, call(kind, N(-k))),
-                          ev(node, call(kind, ast.Binary("-", END, N(k - 1)))))
+    assert np.array_equal(
+        ev(node, call(kind, N(-k))), ev(node, call(kind, ast.Binary("-", END, N(k - 1))))
+    )
 
 
 @settings(max_examples=60, deadline=None)
-@given(nodes, st.sampled_from([0.1, 0.25, 0.3, 0.5, 0.75, 0.9]),
-       st.sampled_from([0.2, 0.5, 0.6, 0.95]), st.sampled_from(["wales", "courses"]))
+@given(
+    nodes,
+    st.sampled_from([0.1, 0.25, 0.3, 0.5, 0.75, 0.9]),
+    st.sampled_from([0.2, 0.5, 0.6, 0.95]),
+    st.sampled_from(["wales", "courses"]),
+)
 def test_fraction_bounds_equal_explicit_indices(node, f, h, kind):
     idx, end = (C.wale, C.wale_end) if kind == "wales" else (C.course, C.course_end)
     lo = np.ceil(f * end - 1e-9)

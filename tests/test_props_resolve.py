@@ -22,16 +22,19 @@ from hypothesis import strategies as st
 from knitc.driver import compile_source
 from knitc.frontend.skeleton import ItfId
 
-SETTINGS = settings(max_examples=100, deadline=None,
-                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+SETTINGS = settings(
+    max_examples=100,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
 
 
 @dataclass
 class GNode:
     name: str
-    kind: str                      # sheet | tube | joint | split
-    paths: list[str]               # interface paths, in the compiler's order
-    sizes: dict[str, int]          # expected stitches per interface path
+    kind: str  # sheet | tube | joint | split
+    paths: list[str]  # interface paths, in the compiler's order
+    sizes: dict[str, int]  # expected stitches per interface path
     props: list[str] = field(default_factory=list)
     length: int | None = None
 
@@ -42,9 +45,9 @@ class Program:
     defines: list[str]
     nodes: dict[str, GNode]
     connections: list[tuple[ItfId, ItfId]]
-    components: list[list[str]]    # node names of each garment, in generation order
+    components: list[list[str]]  # node names of each garment, in generation order
     declared_starts: dict[int, ItfId]  # component index -> declared start
-    node_order: list[str]          # declaration order in the text
+    node_order: list[str]  # declaration order in the text
     closed: set[ItfId]
 
 
@@ -53,7 +56,7 @@ class _Gen:
 
     def __init__(self, draw):
         self.draw = draw
-        self.items: list[tuple[str, str]] = []   # (kind, text)
+        self.items: list[tuple[str, str]] = []  # (kind, text)
         self.defines: list[str] = []
         self.nodes: dict[str, GNode] = {}
         self.connections: list[tuple[ItfId, ItfId]] = []
@@ -91,8 +94,7 @@ class _Gen:
             return self.param(value)
         if how == "param_plus":
             d = self.draw(st.integers(-5, 5))
-            return f"{self.param(value - d)} + {d}" if d >= 0 else \
-                f"{self.param(value - d)} - {-d}"
+            return f"{self.param(value - d)} + {d}" if d >= 0 else f"{self.param(value - d)} - {-d}"
         if how == "double":
             return f"{self.param(value)} * 2 / 2"
         if how == "round":
@@ -133,15 +135,22 @@ class _Gen:
         kind = self.draw(st.sampled_from(["flat", "cylinder", "tube"]))
         sides = 1 if kind == "flat" else 2
         other_path = "top" if entry_path == "bottom" else "bottom"
-        sizes = {entry_path: entry_size if entry_size is not None else self.even_size(),
-                 other_path: self.even_size()}
+        sizes = {
+            entry_path: entry_size if entry_size is not None else self.even_size(),
+            other_path: self.even_size(),
+        }
         length = self.draw(st.integers(1, 60))
         if length == 1 or self.draw(st.booleans()):
             # one course: both interfaces are that course, so they have one size
             sizes[other_path] = sizes[entry_path]
         wb, wt = sizes["bottom"] // sides, sizes["top"] // sides
-        node = GNode(self.fresh("n"), "tube" if kind == "tube" else "sheet", ["bottom", "top"],
-                     sizes, length=length)
+        node = GNode(
+            self.fresh("n"),
+            "tube" if kind == "tube" else "sheet",
+            ["bottom", "top"],
+            sizes,
+            length=length,
+        )
         props = [f"length: {self.expr(length) if self.draw(st.booleans()) else length}"]
         if kind != "tube":
             props.append(f"type: {kind}")
@@ -154,17 +163,28 @@ class _Gen:
             pts.append(f"1: {self.expr(wt, length)}")
             width = "[" + ", ".join(pts) + "]"
         props.append(f"width: {width}")
-        props += self.draw(st.lists(st.sampled_from(
-            ["gauge: half", "gauge: full", "shaper: sides", "shaper: left", "alignment: right",
-             "increase: split"]),
-            max_size=2, unique_by=lambda s: s.split(":")[0]))
+        props += self.draw(
+            st.lists(
+                st.sampled_from(
+                    [
+                        "gauge: half",
+                        "gauge: full",
+                        "shaper: sides",
+                        "shaper: left",
+                        "alignment: right",
+                        "increase: split",
+                    ]
+                ),
+                max_size=2,
+                unique_by=lambda s: s.split(":")[0],
+            )
+        )
         node.props = props
         self.add_node(node)
         return node
 
     # -- trees
-    def grow(self, parent: GNode, parent_path: str, size: int, depth: int,
-             fixed: bool) -> None:
+    def grow(self, parent: GNode, parent_path: str, size: int, depth: int, fixed: bool) -> None:
         """A subtree whose entry interface connects to `parent.parent_path` (`size` stitches).
 
         `fixed` says whether the compiler can infer the size at `parent.parent_path` without
@@ -192,8 +212,9 @@ class _Gen:
                 props.append(f"width: {self.draw(st.integers(1, 20))}")
             if self.draw(st.booleans()):
                 props.append(f"layout: {self.draw(st.sampled_from(['auto', '0.25', '1']))}")
-            node = GNode(self.fresh("n"), "joint", ["bottom", "top"],
-                         {"bottom": size, "top": size}, props)
+            node = GNode(
+                self.fresh("n"), "joint", ["bottom", "top"], {"bottom": size, "top": size}, props
+            )
             self.add_node(node)
             self.connect(parent, parent_path, node, entry)
             # A joint copies sizes both ways; with both ends free it would have none.
@@ -201,15 +222,25 @@ class _Gen:
         else:
             self.split(parent, parent_path, size, depth, fixed)
 
-    def split(self, parent: GNode, parent_path: str, size: int, depth: int,
-              fixed: bool) -> None:
+    def split(self, parent: GNode, parent_path: str, size: int, depth: int, fixed: bool) -> None:
         units = size // 2
         via_base = self.draw(st.booleans()) if fixed else True
         if via_base:
             degree = self.draw(st.integers(1, min(3, units)))
-            cuts = sorted(self.draw(st.lists(st.integers(1, units - 1), min_size=degree - 1,
-                                             max_size=degree - 1, unique=True))) \
-                if degree > 1 else []
+            cuts = (
+                sorted(
+                    self.draw(
+                        st.lists(
+                            st.integers(1, units - 1),
+                            min_size=degree - 1,
+                            max_size=degree - 1,
+                            unique=True,
+                        )
+                    )
+                )
+                if degree > 1
+                else []
+            )
             bounds = [0, *cuts, units]
             branch_sizes = [2 * (b - a) for a, b in zip(bounds, bounds[1:], strict=False)]
             entry = "base"
@@ -264,14 +295,33 @@ def programs(draw) -> Program:
     closed: set[ItfId] = set()
     declared_starts: dict[int, ItfId] = {}
     for ci, comp in enumerate(components):
-        free = [ItfId(n, p) for n in comp for p in g.nodes[n].paths
-                if ItfId(n, p) not in connected]
+        free = [ItfId(n, p) for n in comp for p in g.nodes[n].paths if ItfId(n, p) not in connected]
         for i in free:
             node = g.nodes[i.node]
-            how = draw(st.sampled_from(["", "", "open", "closed", "closed(zigzag)",
-                                        "closed(zigzagreturn)", "closed(collapse)"]))
-            block = draw(st.sampled_from(["", "", "{ cast_on: tuck }", "{ cast_off: direct }",
-                                          "{ cast_on: precast  cast_off: none }"]))
+            how = draw(
+                st.sampled_from(
+                    [
+                        "",
+                        "",
+                        "open",
+                        "closed",
+                        "closed(zigzag)",
+                        "closed(zigzagreturn)",
+                        "closed(collapse)",
+                    ]
+                )
+            )
+            block = draw(
+                st.sampled_from(
+                    [
+                        "",
+                        "",
+                        "{ cast_on: tuck }",
+                        "{ cast_off: direct }",
+                        "{ cast_on: precast  cast_off: none }",
+                    ]
+                )
+            )
             if how or block:
                 g.items.append(("itf", f"{g.ref(node, i.path)} {how} {block}".rstrip()))
             if how.startswith("closed"):
@@ -281,9 +331,20 @@ def programs(draw) -> Program:
             declared_starts[ci] = s
             g.items.append(("start", f"start {g.ref(g.nodes[s.node], s.path)}"))
     if draw(st.booleans()):
-        g.items.append(("machine", draw(st.sampled_from([
-            "machine { gauge: half }", "machine { needles: 400  carriers: [1, 4] }",
-            "machine { increase: split  cast_on: tuck }"]))))
+        g.items.append(
+            (
+                "machine",
+                draw(
+                    st.sampled_from(
+                        [
+                            "machine { gauge: half }",
+                            "machine { needles: 400  carriers: [1, 4] }",
+                            "machine { increase: split  cast_on: tuck }",
+                        ]
+                    )
+                ),
+            )
+        )
     if draw(st.booleans()):
         g.items.append(("import", "import std.stitches (rib)"))
     order = draw(st.permutations(range(len(g.items))))
@@ -291,11 +352,13 @@ def programs(draw) -> Program:
     sep = draw(st.sampled_from(["\n", "\n\n", "  ", "\n// comment\n"]))
     text = sep.join(t for _, t in items) + "\n"
     node_order = [t.split()[1] for k, t in items if k == "node"]
-    return Program(text, g.defines, g.nodes, g.connections, components, declared_starts,
-                   node_order, closed)
+    return Program(
+        text, g.defines, g.nodes, g.connections, components, declared_starts, node_order, closed
+    )
 
 
 # ---- property 1: valid programs resolve exactly as generated --------------------------------
+
 
 @SETTINGS
 @given(programs())
@@ -311,13 +374,13 @@ def test_generated_programs_resolve_as_generated(prog: Program):
 
     # Counts.
     assert list(skel.nodes) == prog.node_order
-    assert {n: skel.nodes[n].kind for n in skel.nodes} == {
-        n: g.kind for n, g in prog.nodes.items()}
+    assert {n: skel.nodes[n].kind for n in skel.nodes} == {n: g.kind for n, g in prog.nodes.items()}
     expected_itfs = {ItfId(n, p) for n, g in prog.nodes.items() for p in g.paths}
     assert set(skel.interfaces) == expected_itfs
     assert len(skel.connections) == len(prog.connections)
     assert {frozenset((c.a, c.b)) for c in skel.connections} == {
-        frozenset(c) for c in prog.connections}
+        frozenset(c) for c in prog.connections
+    }
 
     # Sizes: every interface has exactly the size it was generated with.
     for n, g in prog.nodes.items():
@@ -330,15 +393,15 @@ def test_generated_programs_resolve_as_generated(prog: Program):
         if i in connected:
             assert itf.state == "connected"
         elif i in prog.closed:
-            assert itf.state == "closed" and itf.closing in ("collapse", "zigzag",
-                                                             "zigzagreturn")
+            assert itf.state == "closed" and itf.closing in ("collapse", "zigzag", "zigzagreturn")
         else:
             assert itf.state == "open"
 
     # Components, in declaration order of their first node.
     pos = {n: i for i, n in enumerate(prog.node_order)}
-    expected_comps = sorted((sorted(c, key=pos.__getitem__) for c in prog.components),
-                            key=lambda c: pos[c[0]])
+    expected_comps = sorted(
+        (sorted(c, key=pos.__getitem__) for c in prog.components), key=lambda c: pos[c[0]]
+    )
     assert skel.components() == expected_comps
 
     # Exactly one start per garment: the declared one, or the first free interface.
@@ -350,8 +413,12 @@ def test_generated_programs_resolve_as_generated(prog: Program):
         if want is not None:
             assert start.itf == want and not start.inferred
         else:
-            first_free = next(ItfId(n, p) for n in comp for p in prog.nodes[n].paths
-                              if ItfId(n, p) not in connected)
+            first_free = next(
+                ItfId(n, p)
+                for n in comp
+                for p in prog.nodes[n].paths
+                if ItfId(n, p) not in connected
+            )
             assert start.itf == first_free and start.inferred
 
 
@@ -359,8 +426,9 @@ def test_generator_covers_splits_and_joints():
     """The generator really produces the interesting shapes (guards against a vacuous test)."""
     seen: set[str] = set()
 
-    @settings(max_examples=60, deadline=None, database=None,
-              suppress_health_check=list(HealthCheck))
+    @settings(
+        max_examples=60, deadline=None, database=None, suppress_health_check=list(HealthCheck)
+    )
     @given(programs())
     def collect(prog):
         seen.update(g.kind for g in prog.nodes.values())
@@ -375,10 +443,38 @@ def test_generator_covers_splits_and_joints():
 
 # ---- property 2: damaged programs give diagnostics, never exceptions -----------------------
 
-NASTY = list("{}[]()#@:.,-><=!+*/%^\"\\ \n\t_0123456789abcKP") + [
-    "->", "//", "/*", "*/", '"""', "1e999", "0.5", "branches[", "closed(", "start ", "param ",
-    "sheet ", "split ", "joint ", "tube ", "#", "@", "@a.", "\u00e9", "\u2192", "\x00", "\r",
-    "\ud800", "9" * 30, "1/0", "^", "not ", " and ", "[0: 1, 1: 2]", "true", "import std.",
+NASTY = list('{}[]()#@:.,-><=!+*/%^"\\ \n\t_0123456789abcKP') + [
+    "->",
+    "//",
+    "/*",
+    "*/",
+    '"""',
+    "1e999",
+    "0.5",
+    "branches[",
+    "closed(",
+    "start ",
+    "param ",
+    "sheet ",
+    "split ",
+    "joint ",
+    "tube ",
+    "#",
+    "@",
+    "@a.",
+    "\u00e9",
+    "\u2192",
+    "\x00",
+    "\r",
+    "\ud800",
+    "9" * 30,
+    "1/0",
+    "^",
+    "not ",
+    " and ",
+    "[0: 1, 1: 2]",
+    "true",
+    "import std.",
 ]
 
 
@@ -402,7 +498,7 @@ def mutations(draw):
         else:
             k = draw(st.integers(0, len(text)))
             a, b = sorted((i, k))
-            text = text[:a] + text[b:j if j > b else b] + text[a:b] + text[max(j, b):]
+            text = text[:a] + text[b : j if j > b else b] + text[a:b] + text[max(j, b) :]
     defines = list(prog.defines)
     if defines and draw(st.booleans()):
         k = draw(st.integers(0, len(defines) - 1))
@@ -433,15 +529,20 @@ def test_arbitrary_text_never_raises(text):
 
 # ---- inputs known to have crashed the compiler (found while writing these properties) -------
 
-@pytest.mark.parametrize("text", [
-    pytest.param("sheet a { width: 1e999 - 1e999 }\n", id="nan-width"),
-    pytest.param("param x = 1e999 * 0\ntube a { width: [0: #x, 1: 3] }\n", id="nan-profile"),
-    pytest.param("param x = " + "1" * 4301 + "\n", id="huge-int-literal"),
-    pytest.param("param x = 9 ^ 9 ^ 9\n", id="huge-power"),
-    pytest.param("param x = 1e999\nsheet a { width: #x  length: #x }\n", id="inf"),
-    pytest.param("joint j { layout: 1e999 - 1e999 }\ntube a {}\na.top -> j.bottom\n",
-                 id="nan-layout"),
-])
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        pytest.param("sheet a { width: 1e999 - 1e999 }\n", id="nan-width"),
+        pytest.param("param x = 1e999 * 0\ntube a { width: [0: #x, 1: 3] }\n", id="nan-profile"),
+        pytest.param("param x = " + "1" * 4301 + "\n", id="huge-int-literal"),
+        pytest.param("param x = 9 ^ 9 ^ 9\n", id="huge-power"),
+        pytest.param("param x = 1e999\nsheet a { width: #x  length: #x }\n", id="inf"),
+        pytest.param(
+            "joint j { layout: 1e999 - 1e999 }\ntube a {}\na.top -> j.bottom\n", id="nan-layout"
+        ),
+    ],
+)
 def test_known_crash_inputs_never_raise(text):
     r = compile_source(text, "crash.knit")
     r.diagnostics.render()

@@ -35,8 +35,11 @@ from knitc.scheduling.tracing import trace_courses, trace_rules
 from test_props_resolve import programs
 from test_props_shape import SETTINGS, compile_graph
 
-TRACERS = {"courses": trace_courses, "rules1": lambda g: trace_rules(g, passes=1),
-           "rules2": lambda g: trace_rules(g, passes=2)}
+TRACERS = {
+    "courses": trace_courses,
+    "rules1": lambda g: trace_rules(g, passes=1),
+    "rules2": lambda g: trace_rules(g, passes=2),
+}
 
 
 def replay_occupancy(g, sl, sched) -> list[str]:
@@ -60,8 +63,9 @@ def replay_occupancy(g, sl, sched) -> list[str]:
             where[int(s)] = (int(b), int(n))
         taken: dict[tuple[int, int], int] = {}
         here = set()
-        for s, x, b, n in zip(st.tolist(), state.tolist(), bed.tolist(), needle.tolist(),
-                              strict=True):
+        for s, x, b, n in zip(
+            st.tolist(), state.tolist(), bed.tolist(), needle.tolist(), strict=True
+        ):
             if (b, n) in taken:
                 problems.append(f"slice {k}: entries {taken[(b, n)]} and {s} share a needle")
             taken[(b, n)] = s
@@ -69,8 +73,11 @@ def replay_occupancy(g, sl, sched) -> list[str]:
             if x in (EXPECTED, ACTIVE):
                 ps = [int(p) for p in g.wale_prev[s] if p >= 0]
                 # an increase's loop goes into its first next wale when both are here
-                loops += [p for p in ps if g.wale_next[p, 0] == s
-                          or int(g.wale_next[p, 0]) not in set(st.tolist())]
+                loops += [
+                    p
+                    for p in ps
+                    if g.wale_next[p, 0] == s or int(g.wale_next[p, 0]) not in set(st.tolist())
+                ]
             for p in loops:
                 if p in made and made[p] <= k <= dies[p]:
                     here.add(p)
@@ -94,7 +101,7 @@ def check_schedule(g, sl, sched) -> None:
     for k in range(sl.n_slices):
         st, state, bed, needle = ir.positions(sched, k)
         a = int(sl.start[k])
-        rel = sched.rel[a:a + st.shape[0]].tolist()
+        rel = sched.rel[a : a + st.shape[0]].tolist()
         ring = rel + rel[:1] if sl.circular[k] else rel
         assert all(abs(x - y) <= 1 for x, y in zip(ring, ring[1:], strict=False)), k
         places = list(zip(bed.tolist(), needle.tolist(), strict=True))
@@ -102,8 +109,9 @@ def check_schedule(g, sl, sched) -> None:
         assert all(0 <= n < sched.needles for _, n in places), k
         if sched.step[k] == 2:
             assert all(n % 2 == b for b, n in places), k
-        assert all(0 <= n < sched.needles for n, x in zip(needle, state, strict=True)
-                   if x == ACTIVE)
+        assert all(
+            0 <= n < sched.needles for n, x in zip(needle, state, strict=True) if x == ACTIVE
+        )
     assert replay_occupancy(g, sl, sched) == []
     assert ir.verify(g, sched) == []
 

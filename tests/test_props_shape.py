@@ -42,9 +42,15 @@ from knitc.shaping import stitch_graph as sg
 from test_props_resolve import Program, programs
 from test_trace import check_trace, direction_errors, far_jumps
 
-SETTINGS = settings(max_examples=60, deadline=None,
-                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
-                                           HealthCheck.filter_too_much])
+SETTINGS = settings(
+    max_examples=60,
+    deadline=None,
+    suppress_health_check=[
+        HealthCheck.too_slow,
+        HealthCheck.data_too_large,
+        HealthCheck.filter_too_much,
+    ],
+)
 STRICT = os.environ.get("KNITC_STRICT_PROPS") == "1"
 SHAPER_REJECTS = {"E530", "E532", "E533"}
 """Designer errors of the shape pass that valid-looking generated programs can hit: a
@@ -54,17 +60,18 @@ after a zigzag closing."""
 
 # ---- compiling, with the filters described above ---------------------------------------------
 
+
 def _sides_disagree(skel: Skeleton) -> bool:
     """Interfaces that disagree on their number of sides where the shape pass trusts them:
     across a connection to a split or joint, between a joint's two ends, or between a split
     branch and its base (folded: the base's sides; unfolded: flat)."""
+
     def sides(node: str, path: str) -> int | None:
         return skel.interfaces[ItfId(node, path)].sides
 
     for c in skel.connections:
         kinds = {skel.nodes[c.a.node].kind, skel.nodes[c.b.node].kind}
-        if kinds & {"split", "joint"} and \
-                skel.interfaces[c.a].sides != skel.interfaces[c.b].sides:
+        if kinds & {"split", "joint"} and skel.interfaces[c.a].sides != skel.interfaces[c.b].sides:
             return True
     for node in skel.nodes.values():
         if node.kind == "joint" and sides(node.name, "bottom") != sides(node.name, "top"):
@@ -81,8 +88,7 @@ def _known_bug(prog: Program, exc: BaseException) -> str | None:
     frames = traceback.extract_tb(exc.__traceback__)
     if not any(f.filename.replace("\\", "/").endswith("knitc/passes/shape.py") for f in frames):
         return None
-    skel = compile_source(prog.text, "gen.knit", defines=prog.defines,
-                          until="skeleton").skeleton
+    skel = compile_source(prog.text, "gen.knit", defines=prog.defines, until="skeleton").skeleton
     if skel is None:
         return None
     if _sides_disagree(skel):
@@ -114,6 +120,7 @@ def compile_graph(prog: Program):
 
 
 # ---- stitch-graph properties -----------------------------------------------------------------
+
 
 def check_courses(g: sg.StitchGraph) -> None:
     """Courses tile the ids; each is a path in id order, or a cycle if circular."""
@@ -172,6 +179,7 @@ def test_generated_stitch_graphs_are_valid(prog: Program):
 
 # ---- sheets and tubes: stitch counts from the width profile ----------------------------------
 
+
 def expected_sheet_stitches(skel: Skeleton, name: str, entry: str) -> int:
     """Σ of the course widths of a sheet or tube knitted from `entry`: course c has width
     round_half_up(w(t)), t = c / (length - 1) (1 - that when knitted downwards), per bed,
@@ -195,19 +203,30 @@ def expected_sheet_stitches(skel: Skeleton, name: str, entry: str) -> int:
         if length > 1:
             widths[0] = widths[1]
         ends[0] = itf_in.closing
-    partner = next((c.b if c.a == ItfId(name, exit_) else c.a for c in skel.connections
-                    if ItfId(name, exit_) in (c.a, c.b)), None)
-    two_to_one = partner is not None and itf_out.size and \
-        skel.interfaces[partner].size is not None and \
-        2 * skel.interfaces[partner].size == itf_out.size and \
-        skel.nodes[partner.node].props["gauge"] == node.props["gauge"]
+    partner = next(
+        (
+            c.b if c.a == ItfId(name, exit_) else c.a
+            for c in skel.connections
+            if ItfId(name, exit_) in (c.a, c.b)
+        ),
+        None,
+    )
+    two_to_one = (
+        partner is not None
+        and itf_out.size
+        and skel.interfaces[partner].size is not None
+        and 2 * skel.interfaces[partner].size == itf_out.size
+        and skel.nodes[partner.node].props["gauge"] == node.props["gauge"]
+    )
     if itf_out.state == "closed" or two_to_one:
         if length > 1:
             widths[-1] = widths[-2]
         if length - 1 not in ends:
             ends[length - 1] = itf_out.closing if itf_out.state == "closed" else "collapse"
-    per_course = [w if ends.get(c, "open") not in ("open", "zigzag", "zigzagreturn") else 2 * w
-                  for c, w in enumerate(widths)]
+    per_course = [
+        w if ends.get(c, "open") not in ("open", "zigzag", "zigzagreturn") else 2 * w
+        for c, w in enumerate(widths)
+    ]
     return sum(per_course)
 
 
@@ -236,6 +255,7 @@ def test_sheet_and_tube_counts_follow_the_width_profile(prog: Program):
 
 
 # ---- tracing ----------------------------------------------------------------------------------
+
 
 @SETTINGS
 @given(programs())

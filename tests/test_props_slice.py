@@ -35,6 +35,7 @@ E, A, S = sl.EXPECTED, sl.ACTIVE, sl.SUSPENDED
 
 # ---- a plain transcription of the slicing rules ----------------------------------------------
 
+
 def shaping_rule(g: StitchGraph) -> list[int]:
     """Increases + decreases per stitch, folds (a flat course opening into a tube or a tube
     collapsing into a flat course) and gauge changes excluded, written out on lists."""
@@ -45,11 +46,15 @@ def shaping_rule(g: StitchGraph) -> list[int]:
     gauge = [int(g.course_gauge[int(g.course[s])]) for s in range(g.n_stitches)]
 
     def fold(s: int, two: list[int]) -> bool:
-        return (not circ[s] and circ[two[0]]
-                and int(g.side[two[0]]) != int(g.side[two[1]])) or gauge[two[0]] != gauge[s]
+        return (
+            not circ[s] and circ[two[0]] and int(g.side[two[0]]) != int(g.side[two[1]])
+        ) or gauge[two[0]] != gauge[s]
 
-    return [int(len(nexts[s]) == 2 and not fold(s, nexts[s]))
-            + int(len(prevs[s]) == 2 and not fold(s, prevs[s])) for s in range(g.n_stitches)]
+    return [
+        int(len(nexts[s]) == 2 and not fold(s, nexts[s]))
+        + int(len(prevs[s]) == 2 and not fold(s, prevs[s]))
+        for s in range(g.n_stitches)
+    ]
 
 
 def reference_slices(g: StitchGraph, t: Trace, flat: int, tube: int) -> list[dict]:
@@ -68,8 +73,9 @@ def reference_slices(g: StitchGraph, t: Trace, flat: int, tube: int) -> list[dic
     def finished(s: int) -> bool:
         return done[s] >= t.passes
 
-    fold = [len(kids[s]) == 2 and g.side[kids[s][0]] != g.side[kids[s][1]]
-            for s in range(g.n_stitches)]
+    fold = [
+        len(kids[s]) == 2 and g.side[kids[s][0]] != g.side[kids[s][1]] for s in range(g.n_stitches)
+    ]
 
     holding = [-1]  # the course the slice being opened continues: its ends stay on the bed
 
@@ -120,15 +126,28 @@ def reference_slices(g: StitchGraph, t: Trace, flat: int, tube: int) -> list[dic
 
     def opened(cyc, v, src) -> dict:
         sides = {int(g.side[x]) for x, _ in cyc}
-        return {"cycle": cyc, "entry": {x: e for e in cyc for x in e[:1]}, "key": key(v),
-                "visit": v, "visits": 0, "shaping": 0,
-                "limit": tube if sides == {0, 1} else flat, "derived_from": src}
+        return {
+            "cycle": cyc,
+            "entry": {x: e for e in cyc for x in e[:1]},
+            "key": key(v),
+            "visit": v,
+            "visits": 0,
+            "shaping": 0,
+            "limit": tube if sides == {0, 1} else flat,
+            "derived_from": src,
+        }
 
     def key(v: int) -> tuple:
         s = int(t.stitch[v])
         c = int(g.course[s])
-        return (int(g.node[s]), int(t.yarn[v]), int(t.dir[v]), int(g.course_gauge[c]),
-                not prevs[s], not kids[s])
+        return (
+            int(g.node[s]),
+            int(t.yarn[v]),
+            int(t.dir[v]),
+            int(g.course_gauge[c]),
+            not prevs[s],
+            not kids[s],
+        )
 
     out: list[dict] = []
     last_of_node: dict[int, int] = {}
@@ -157,6 +176,7 @@ def reference_slices(g: StitchGraph, t: Trace, flat: int, tube: int) -> list[dic
 
 # ---- the constraints, from scratch ------------------------------------------------------------
 
+
 def check_constraints(g: StitchGraph, t: Trace, s: sl.Slices) -> None:
     prevs = [[int(p) for p in row if p >= 0] for row in g.wale_prev]
     nexts = [[int(p) for p in row if p >= 0] for row in g.wale_next]
@@ -182,8 +202,7 @@ def check_constraints(g: StitchGraph, t: Trace, s: sl.Slices) -> None:
     assert seen == list(range(t.n_visits))
 
 
-def check_against_reference(g: StitchGraph, t: Trace, s: sl.Slices, flat: int,
-                            tube: int) -> None:
+def check_against_reference(g: StitchGraph, t: Trace, s: sl.Slices, flat: int, tube: int) -> None:
     ref = reference_slices(g, t, flat, tube)
     assert s.n_slices == len(ref)
     for k, r in enumerate(ref):
@@ -195,8 +214,11 @@ def check_against_reference(g: StitchGraph, t: Trace, s: sl.Slices, flat: int,
         assert bool(s.circular[k]) == ({int(g.side[x]) for x, _ in r["cycle"]} == {0, 1})
 
 
-TRACERS = {"courses": trace_courses, "rules1": lambda g: trace_rules(g, passes=1),
-           "rules2": lambda g: trace_rules(g, passes=2)}
+TRACERS = {
+    "courses": trace_courses,
+    "rules1": lambda g: trace_rules(g, passes=1),
+    "rules2": lambda g: trace_rules(g, passes=2),
+}
 
 
 @settings(SETTINGS, max_examples=40)

@@ -20,8 +20,11 @@ from knitc.backends.knitout import write_knitout
 from oracle import assert_clean, run_oracle_on_text
 from test_transfers import Problem, run
 
-SETTINGS = settings(max_examples=250, deadline=None,
-                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+SETTINGS = settings(
+    max_examples=250,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
+)
 NEEDLES = 120
 
 
@@ -66,8 +69,13 @@ def problems(draw) -> tuple[Problem, float | None]:
     order = [i for i, k in enumerate(sizes) for _ in range(k)]
     k = draw(st.integers(-3, 3)) if closed else 0
     target = {s: slot_pos[order[(s + k) % n]] for s in range(n)}
-    pb = Problem({pos: s for s, pos in enumerate(start)}, target, max_rack=max_rack,
-                 needles=NEEDLES, circular=closed)
+    pb = Problem(
+        {pos: s for s, pos in enumerate(start)},
+        target,
+        max_rack=max_rack,
+        needles=NEEDLES,
+        circular=closed,
+    )
     assume(pb.moves())
     carrier = None
     if draw(st.booleans()):

@@ -73,11 +73,9 @@ SHEET = [
     ("wales(0:1).neighbors(1)", "..#...\n" * 5),
     ("courses(0).neighbors(0:2)", "......\n......\n######\n######\n######"),
     ("boundaries()", "######\n#....#\n#....#\n#....#\n######"),
-    ("select(1:3, 1:4).boundaries()",
-     "......\n.####.\n.#..#.\n.####.\n......"),
+    ("select(1:3, 1:4).boundaries()", "......\n.####.\n.#..#.\n.####.\n......"),
     ("filter(course == 2 and wale > 1)", "......\n......\n..####\n......\n......"),
-    ("filter(wale % 3 == 0 or course_end - course == 0)",
-     "######\n#..#..\n#..#..\n#..#..\n#..#.."),
+    ("filter(wale % 3 == 0 or course_end - course == 0)", "######\n#..#..\n#..#..\n#..#..\n#..#.."),
     ('itf("bottom")', "......\n......\n......\n......\n######"),
     ('itf("s.top") or itf("bottom")', "######\n......\n......\n......\n######"),
     ("named()", "######\n......\n......\n......\n######"),
@@ -85,8 +83,7 @@ SHEET = [
     ('shape("t")', "......\n" * 5),
     ("side(back)", "......\n" * 5),
     ("not wales(1:end)", "#.....\n" * 5),
-    ("wales(0:2) and courses(0:1) or courses(4)",
-     "######\n......\n......\n###...\n###..."),
+    ("wales(0:2) and courses(0:1) or courses(4)", "######\n......\n......\n###...\n###..."),
     ("wales(4:2)", "......\n" * 5),
     ("courses(0.5)", "......\n......\n######\n......\n......"),
     ("courses(-0.5:end)", "######\n######\n######\n......\n......"),
@@ -143,6 +140,7 @@ def test_global_layer_sees_every_node():
     r = compile_layers()
     g = r.graph
     from knitc.frontend import ast
+
     q = ast.Call(func=ast.Name(id="wales"), args=(ast.Number(value=0),))
     d = Diagnostics()
     m = evaluate_query(g, None, q, None, d)
@@ -152,9 +150,12 @@ def test_global_layer_sees_every_node():
 
 
 def test_params_and_lets():
-    r = compile_source(SHAPES.replace("start s", "param k = 2\nstart s", 1)
-                       + "pattern s {\n let a = wales(0)\n set P where a or courses(#k)\n}\n",
-                       "t.knit", until="stitch-graph")
+    r = compile_source(
+        SHAPES.replace("start s", "param k = 2\nstart s", 1)
+        + "pattern s {\n let a = wales(0)\n set P where a or courses(#k)\n}\n",
+        "t.knit",
+        until="stitch-graph",
+    )
     assert not r.diagnostics.has_errors, list(r.diagnostics)
     g = r.graph
     let, st = r.skeleton.layers
@@ -167,20 +168,23 @@ def test_params_and_lets():
     assert np.array_equal(evaluate_query(g, 0, st.stmt.where, env2, d), m)
 
 
-@pytest.mark.parametrize(("query", "code"), [
-    ("wales(0:0:end)", "E702"),
-    ("wales(0:1.5:end)", "E702"),
-    ("neighbors(1)", "E701"),
-    ("courses(0).wales(1)", "E701"),
-    ('shape("nope")', "E705"),
-    ("side(end)", "E703"),
-    ("wales(0).neighbors(3:1)", "E702"),
-    ("filter(wale / 0 > 1)", "E305"),  # the same code as anywhere else
-    ("filter(wale ^ (0 - 1) > 0)", "E305"),
-    ("filter(2 ^ 5000 > wale)", "E305"),
-    ("filter(wale + (wale > 1) > 0)", "E303"),
-    ("a", "E704"),
-])
+@pytest.mark.parametrize(
+    ("query", "code"),
+    [
+        ("wales(0:0:end)", "E702"),
+        ("wales(0:1.5:end)", "E702"),
+        ("neighbors(1)", "E701"),
+        ("courses(0).wales(1)", "E701"),
+        ('shape("nope")', "E705"),
+        ("side(end)", "E703"),
+        ("wales(0).neighbors(3:1)", "E702"),
+        ("filter(wale / 0 > 1)", "E305"),  # the same code as anywhere else
+        ("filter(wale ^ (0 - 1) > 0)", "E305"),
+        ("filter(2 ^ 5000 > wale)", "E305"),
+        ("filter(wale + (wale > 1) > 0)", "E303"),
+        ("a", "E704"),
+    ],
+)
 def test_errors_are_located_diagnostics(query, code):
     src = SHAPES + f"pattern s {{\n let a = all()\n set P where {query}\n}}\n"
     r = compile_source(src, "t.knit", until="stitch-graph")

@@ -62,9 +62,25 @@ QUERIES = {
     "set_algebra": "(wales(0:9) or courses(20:end)) - select(25:end, 5:7) and not side(back)",
 }
 
-LEGEND = {"K": ".", "P": "-", "T": "t", "M": "m", "FR1": "r", "FR2": "R", "FL1": "l",
-          "FL2": "L", "BR1": "b", "BR2": "B", "BL1": "d", "BL2": "D", "XR+": "X", "XR-": "x",
-          "XL+": "Y", "XL-": "y", "S": "s"}
+LEGEND = {
+    "K": ".",
+    "P": "-",
+    "T": "t",
+    "M": "m",
+    "FR1": "r",
+    "FR2": "R",
+    "FL1": "l",
+    "FL2": "L",
+    "BR1": "b",
+    "BR2": "B",
+    "BL1": "d",
+    "BL2": "D",
+    "XR+": "X",
+    "XR-": "x",
+    "XL+": "Y",
+    "XL-": "y",
+    "S": "s",
+}
 assert set(LEGEND) == set(INSTRUCTIONS) and len(set(LEGEND.values())) == len(LEGEND)
 LEGEND_LINE = "# " + " ".join(f"{v}={k}" for k, v in LEGEND.items())
 
@@ -90,10 +106,7 @@ def write_motif_png(folder: Path) -> None:
     """A 6 x 4 image: an arrow of dark pixels on a transparent background."""
     from PIL import Image
 
-    px = ["..##..",
-          ".####.",
-          "######",
-          "..##.."]
+    px = ["..##..", ".####.", "######", "..##.."]
     im = Image.new("RGBA", (6, 4), (0, 0, 0, 0))
     for y, line in enumerate(px):
         for x, ch in enumerate(line):
@@ -117,8 +130,7 @@ def dump(shape: str, query: str, folder: Path) -> str:
     g, d = patterned(src, str(folder / "design.knit"))
     assert not list(d), d.render()
     assert int((g.node == 0).sum()) == 900
-    return (f"# set P where {query}\n# on a 30 x 30 {shape}\n{LEGEND_LINE}\n"
-            + chart(g, "s") + "\n")
+    return f"# set P where {query}\n# on a 30 x 30 {shape}\n{LEGEND_LINE}\n" + chart(g, "s") + "\n"
 
 
 @pytest.mark.parametrize("shape", list(SHAPES))

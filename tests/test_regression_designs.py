@@ -21,8 +21,12 @@ import pytest
 from fabric import assert_knits_as_designed
 from knitc.driver import compile_source
 
-CROWNS = {f"crown-{w}x{n}": f"tube crown {{ length: {n}  width: [0: {w}, 1: 4]  shaper: uniform }}\n"
-          "crown.top closed\n" for w in (24, 30, 40) for n in (4, 5, 6, 7, 8)}
+CROWNS = {
+    f"crown-{w}x{n}": f"tube crown {{ length: {n}  width: [0: {w}, 1: 4]  shaper: uniform }}\n"
+    "crown.top closed\n"
+    for w in (24, 30, 40)
+    for n in (4, 5, 6, 7, 8)
+}
 LEG_FOOT = """\
 tube leg  { length: 40  width: 10 }
 tube foot { length: 50  width: 12 }
@@ -50,21 +54,34 @@ fl.top -> bl.top
 fr.top -> br.top
 start front.bottom
 """
-ZIGZAGS = {f"zigzag-{mode}-{end}": f"tube t {{ length: 6  width: 4 }}\nt.{end} closed({mode})\n"
-           for mode in ("zigzag", "zigzagreturn") for end in ("bottom", "top")}
+ZIGZAGS = {
+    f"zigzag-{mode}-{end}": f"tube t {{ length: 6  width: 4 }}\nt.{end} closed({mode})\n"
+    for mode in ("zigzag", "zigzagreturn")
+    for end in ("bottom", "top")
+}
 """Tubes closed by a course alternating front and back needles: its cycle is the ring it
 closes (its yarn order zigzags), and the bind-off of one moves each loop straight across."""
-FLAT_INTO_TUBE = "sheet a { type: flat  length: 4  width: 8 }\ntube b { length: 4  width: 4 }\n" \
+FLAT_INTO_TUBE = (
+    "sheet a { type: flat  length: 4  width: 8 }\ntube b { length: 4  width: 4 }\n"
     "a.top -> b.bottom\n"
-TUBE_OPENED = ("tube a { length: 4  width: 4 }\nsplit s { degree: 1  folded: false }\n"
-               "sheet f { type: flat  length: 3  width: 8 }\na.top -> s.base\n"
-               "s.branches[0] -> f.bottom\n")
+)
+TUBE_OPENED = (
+    "tube a { length: 4  width: 4 }\nsplit s { degree: 1  folded: false }\n"
+    "sheet f { type: flat  length: 3  width: 8 }\na.top -> s.base\n"
+    "s.branches[0] -> f.bottom\n"
+)
 PRECAST_CLOSED = "tube t { length: 6  width: 6 }\nt.bottom closed { cast_on: precast }\n"
-DESIGNS = {**CROWNS, **ZIGZAGS, "leg-into-wider-foot": LEG_FOOT, "tank-shoulders": TANK,
-           "flat-into-tube": FLAT_INTO_TUBE, "tube-opened-flat": TUBE_OPENED,
-           "tube-opened-flat-knitted-back": TUBE_OPENED.replace("a.top", "a.bottom"),
-           "closed-start-precast": PRECAST_CLOSED,
-           "closed-start-precast-half": "machine { gauge: half }\n" + PRECAST_CLOSED}
+DESIGNS = {
+    **CROWNS,
+    **ZIGZAGS,
+    "leg-into-wider-foot": LEG_FOOT,
+    "tank-shoulders": TANK,
+    "flat-into-tube": FLAT_INTO_TUBE,
+    "tube-opened-flat": TUBE_OPENED,
+    "tube-opened-flat-knitted-back": TUBE_OPENED.replace("a.top", "a.bottom"),
+    "closed-start-precast": PRECAST_CLOSED,
+    "closed-start-precast-half": "machine { gauge: half }\n" + PRECAST_CLOSED,
+}
 
 
 def build(src: str):

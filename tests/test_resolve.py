@@ -38,11 +38,12 @@ def ok(text: str, defines=(), path: str = "t.knit") -> sk.Skeleton:
 def itf(skel: sk.Skeleton, ref: str) -> sk.Interface:
     node, _, path = ref.partition(".")
     if path.startswith("branches["):
-        path = "branches/" + path[len("branches["):-1]
+        path = "branches/" + path[len("branches[") : -1]
     return skel.interfaces[ItfId(node, path)]
 
 
 # ---- parameters ----------------------------------------------------------------------------
+
 
 def test_params_evaluated_in_any_order():
     skel = ok("param b = #a * 3 + 1\nparam a = 2\nparam c = round(#b / 2)\n")
@@ -50,8 +51,10 @@ def test_params_evaluated_in_any_order():
 
 
 def test_param_kinds():
-    skel = ok('param s = "txt"\nparam w = half\nparam l = [1, 2]\nparam p = [0: 1, 1: 3]\n'
-              "param t = #l[1] > 1\n")
+    skel = ok(
+        'param s = "txt"\nparam w = half\nparam l = [1, 2]\nparam p = [0: 1, 1: 3]\n'
+        "param t = #l[1] > 1\n"
+    )
     assert skel.params["s"] == "txt"
     assert skel.params["w"] == Word("half")
     assert skel.params["l"] == (1, 2)
@@ -66,16 +69,19 @@ def test_param_used_in_node():
     assert a.props["width"] == Profile.constant(7)
 
 
-@pytest.mark.parametrize("text, code", [
-    ("param a = #b\nparam b = #a\n", "E404"),
-    ("param a = #a\n", "E404"),
-    ("param a = #nope\n", "E403"),
-    ("param a = 1\nparam a = 2\n", "E401"),
-    ("sheet s {}\nparam a = @s.length\n", "E405"),
-    ("param a = @length\n", "E405"),
-    ("param a = 1 / 0\n", "E305"),
-    ("param a = foo(1)\n", "E201"),
-])
+@pytest.mark.parametrize(
+    "text, code",
+    [
+        ("param a = #b\nparam b = #a\n", "E404"),
+        ("param a = #a\n", "E404"),
+        ("param a = #nope\n", "E403"),
+        ("param a = 1\nparam a = 2\n", "E401"),
+        ("sheet s {}\nparam a = @s.length\n", "E405"),
+        ("param a = @length\n", "E405"),
+        ("param a = 1 / 0\n", "E305"),
+        ("param a = foo(1)\n", "E201"),
+    ],
+)
 def test_param_errors(text, code):
     r = compile_(text)
     assert code in errors(r)
@@ -129,15 +135,18 @@ def test_several_defines():
     assert skel.params == {"a": 10, "b": 20}
 
 
-@pytest.mark.parametrize("define, code", [
-    ("nope=1", "E402"),
-    ("1x=2", "E408"),
-    ("a", "E408"),
-    ("=3", "E408"),
-    ("a=", "E408"),
-    ("a=(", "E408"),
-    ("a=1 sheet s {}", "E408"),
-])
+@pytest.mark.parametrize(
+    "define, code",
+    [
+        ("nope=1", "E402"),
+        ("1x=2", "E408"),
+        ("a", "E408"),
+        ("=3", "E408"),
+        ("a=", "E408"),
+        ("a=(", "E408"),
+        ("a=1 sheet s {}", "E408"),
+    ],
+)
 def test_bad_defines(define, code):
     r = compile_("param a = 1\n", [define])
     assert code in errors(r)
@@ -156,14 +165,14 @@ def test_define_with_bad_value_type_is_reported_at_use():
 
 # ---- @prop and @node.prop ------------------------------------------------------------------
 
+
 def test_own_prop_reference():
     skel = ok("sheet a { length: 20  width: round(@length / 3) }\n")
     assert skel.nodes["a"].props["width"] == Profile.constant(7)
 
 
 def test_other_node_prop_reference_forward_and_back():
-    skel = ok("sheet b { length: @a.length + 1 }\n"
-              "sheet a { length: 30  width: @b.length - 25 }\n")
+    skel = ok("sheet b { length: @a.length + 1 }\nsheet a { length: 30  width: @b.length - 25 }\n")
     assert skel.nodes["a"].props["length"] == 30
     assert skel.nodes["b"].props["length"] == 31
     assert skel.nodes["a"].props["width"] == Profile.constant(6)
@@ -176,30 +185,37 @@ def test_prop_reference_to_default():
 
 
 def test_prop_reference_reads_profile_and_constant_width():
-    skel = ok("tube a { width: [0: 4, 1: 8] }\ntube b { width: @a.width * 2 }\n"
-              "tube c { width: 6 }\ntube d { length: @c.width + 1 }\n")
+    skel = ok(
+        "tube a { width: [0: 4, 1: 8] }\ntube b { width: @a.width * 2 }\n"
+        "tube c { width: 6 }\ntube d { length: @c.width + 1 }\n"
+    )
     assert skel.nodes["b"].props["width"] == Profile(((0.0, 8.0), (1.0, 16.0)))
     # A constant width reads as a number through @refs.
     assert skel.nodes["d"].props["length"] == 7
 
 
 def test_prop_reference_in_interface_block():
-    skel = ok("sheet a { length: 3 }\nsplit s { degree: 3 }\n"
-              "tube x { width: 2 }\ntube y { width: 2 }\ntube z { width: 2 }\n"
-              "s.branches[@a.length - 3] -> x.bottom\n"
-              "s.branches[1] -> y.bottom\ns.branches[2] -> z.bottom\n")
+    skel = ok(
+        "sheet a { length: 3 }\nsplit s { degree: 3 }\n"
+        "tube x { width: 2 }\ntube y { width: 2 }\ntube z { width: 2 }\n"
+        "s.branches[@a.length - 3] -> x.bottom\n"
+        "s.branches[1] -> y.bottom\ns.branches[2] -> z.bottom\n"
+    )
     assert itf(skel, "s.branches[0]").state == "connected"
 
 
-@pytest.mark.parametrize("text, code", [
-    ("sheet a { length: @width  width: @length }\n", "E407"),
-    ("sheet a { length: @b.length }\nsheet b { length: @a.length }\n", "E407"),
-    ("sheet a { length: @nope.length }\n", "E211"),
-    ("sheet a { length: @rows }\n", "E212"),
-    ("sheet a {}\nsheet b { length: @a.degree }\n", "E212"),
-    ("machine { needles: @length }\n", "E406"),
-    ("sheet a {}\nsplit s { degree: 2 }\ns.branches[@degree] -> a.bottom\n", "E406"),
-])
+@pytest.mark.parametrize(
+    "text, code",
+    [
+        ("sheet a { length: @width  width: @length }\n", "E407"),
+        ("sheet a { length: @b.length }\nsheet b { length: @a.length }\n", "E407"),
+        ("sheet a { length: @nope.length }\n", "E211"),
+        ("sheet a { length: @rows }\n", "E212"),
+        ("sheet a {}\nsheet b { length: @a.degree }\n", "E212"),
+        ("machine { needles: @length }\n", "E406"),
+        ("sheet a {}\nsplit s { degree: 2 }\ns.branches[@degree] -> a.bottom\n", "E406"),
+    ],
+)
 def test_prop_reference_errors(text, code):
     assert code in errors(compile_(text))
 
@@ -211,49 +227,56 @@ def test_prop_in_machine_block():
 
 # ---- property checks --------------------------------------------------------------------------
 
-@pytest.mark.parametrize("text, code", [
-    ("sheet a { length: 2.5 }", "E311"),
-    ("sheet a { length: 0 }", "E313"),
-    ("sheet a { length: 100001 }", "E313"),
-    ("sheet a { width: 0 }", "E313"),
-    ("sheet a { width: [0: 4, 1: 0] }", "E313"),
-    ("sheet a { width: half }", "E311"),
-    ("sheet a { width: true }", "E311"),
-    ("sheet a { gauge: third }", "E312"),
-    ("sheet a { gauge: 1 }", "E311"),
-    ("sheet a { type: round }", "E312"),
-    ("sheet a { shaper: wiggle }", "E312"),
-    ("sheet a { colour: 1 }", "E307"),
-    ("tube a { type: flat }", "E307"),
-    ("sheet a { length: 3  length: 4 }", "E308"),
-    ("split s { folded: 1 }", "E311"),
-    ("split s { degree: 0 }", "E313"),
-    ("split s { degree: 65 }", "E313"),
-    ("split s { degree: 2  layout: [0.5] }", "E309"),
-    ("split s { layout: [0.2, 1.5] }", "E313"),
-    ("joint j { layout: 2 }", "E313"),
-    ("joint j { layout: center }", "E311"),
-    ("joint j { rows: -1 }", "E313"),
-    ("tube a { width: 0 }", "E313"),
-    ("machine { racking: 9 }", "E313"),
-    ("machine { carriers: [] }", "E311"),
-    ("machine { carriers: [1, 1] }", "E311"),
-    ("machine { carriers: [11] }", "E313"),
-    ("machine { carriers: [1.5] }", "E311"),
-    ("machine { model: 3 }", "E311"),
-    ("machine { gauge: tiny }", "E312"),
-    ("machine { bed: 2 }", "E307"),
-    ("machine {}\nmachine {}", "E314"),
-])
+
+@pytest.mark.parametrize(
+    "text, code",
+    [
+        ("sheet a { length: 2.5 }", "E311"),
+        ("sheet a { length: 0 }", "E313"),
+        ("sheet a { length: 100001 }", "E313"),
+        ("sheet a { width: 0 }", "E313"),
+        ("sheet a { width: [0: 4, 1: 0] }", "E313"),
+        ("sheet a { width: half }", "E311"),
+        ("sheet a { width: true }", "E311"),
+        ("sheet a { gauge: third }", "E312"),
+        ("sheet a { gauge: 1 }", "E311"),
+        ("sheet a { type: round }", "E312"),
+        ("sheet a { shaper: wiggle }", "E312"),
+        ("sheet a { colour: 1 }", "E307"),
+        ("tube a { type: flat }", "E307"),
+        ("sheet a { length: 3  length: 4 }", "E308"),
+        ("split s { folded: 1 }", "E311"),
+        ("split s { degree: 0 }", "E313"),
+        ("split s { degree: 65 }", "E313"),
+        ("split s { degree: 2  layout: [0.5] }", "E309"),
+        ("split s { layout: [0.2, 1.5] }", "E313"),
+        ("joint j { layout: 2 }", "E313"),
+        ("joint j { layout: center }", "E311"),
+        ("joint j { rows: -1 }", "E313"),
+        ("tube a { width: 0 }", "E313"),
+        ("machine { racking: 9 }", "E313"),
+        ("machine { carriers: [] }", "E311"),
+        ("machine { carriers: [1, 1] }", "E311"),
+        ("machine { carriers: [11] }", "E313"),
+        ("machine { carriers: [1.5] }", "E311"),
+        ("machine { model: 3 }", "E311"),
+        ("machine { gauge: tiny }", "E312"),
+        ("machine { bed: 2 }", "E307"),
+        ("machine {}\nmachine {}", "E314"),
+    ],
+)
 def test_property_errors(text, code):
     assert code in errors(compile_(text))
 
 
-@pytest.mark.parametrize("text", [
-    "joint j { layout: 1e999 - 1e999 }\ntube a {}\na.top -> j.bottom\n",
-    "split s { layout: [0.5, 1e999 * 0] }\ntube a {}\ntube b {}\n"
-    "s.branches[0] -> a.bottom\ns.branches[1] -> b.bottom\n",
-])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "joint j { layout: 1e999 - 1e999 }\ntube a {}\na.top -> j.bottom\n",
+        "split s { layout: [0.5, 1e999 * 0] }\ntube a {}\ntube b {}\n"
+        "s.branches[0] -> a.bottom\ns.branches[1] -> b.bottom\n",
+    ],
+)
 def test_nan_is_out_of_range(text):
     # arithmetic on an infinite literal is refused where it is computed (E305)
     assert {"E305", "E311", "E313"} & set(errors(compile_(text)))
@@ -296,6 +319,7 @@ def test_string_choice_accepted():
 
 # ---- defaults ----------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("kind", ["sheet", "tube", "joint", "split"])
 def test_defaults_follow_the_schema(kind):
     text = f"{kind} n {{}}\n"
@@ -303,8 +327,11 @@ def test_defaults_follow_the_schema(kind):
         # give it sizes so the verifier has nothing to say
         text += "tube a { width: 10 }\ntube b { width: 10 }\ntube c { width: 5 }\n"
         text += "tube d { width: 5 }\n"
-        text += ("a.top -> n.bottom\nn.top -> b.bottom\n" if kind == "joint" else
-                 "n.base -> a.bottom\nn.branches[0] -> c.top\nn.branches[1] -> d.top\n")
+        text += (
+            "a.top -> n.bottom\nn.top -> b.bottom\n"
+            if kind == "joint"
+            else "n.base -> a.bottom\nn.branches[0] -> c.top\nn.branches[1] -> d.top\n"
+        )
     r = compile_(text)
     assert not r.diagnostics.has_errors, r.diagnostics.render()
     props = r.skeleton.nodes["n"].props
@@ -338,19 +365,37 @@ def test_schema_defaults_documented_values():
 def test_machine_defaults():
     skel = ok("sheet a {}")
     m = skel.machine
-    assert (m.model, m.needles, m.gauge, m.racking, m.carriers, m.increase, m.cast_on,
-            m.cast_off) == ("SWG091N2", 541, "full", 4, (3,), "kickback", "interlock", "pickup")
+    assert (
+        m.model,
+        m.needles,
+        m.gauge,
+        m.racking,
+        m.carriers,
+        m.increase,
+        m.cast_on,
+        m.cast_off,
+    ) == ("SWG091N2", 541, "full", 4, (3,), "kickback", "interlock", "pickup")
     assert m.span is None
 
 
 def test_machine_settings_and_node_defaults_from_machine():
-    skel = ok('machine { gauge: half  increase: split  needles: 300  carriers: [1, 2]\n'
-              '  model: "X"  racking: 2  cast_on: tuck  cast_off: direct }\n'
-              "sheet a {}\nsheet b { gauge: full  increase: kickback }\n"
-              "sheet c { increase: auto }\n")
+    skel = ok(
+        "machine { gauge: half  increase: split  needles: 300  carriers: [1, 2]\n"
+        '  model: "X"  racking: 2  cast_on: tuck  cast_off: direct }\n'
+        "sheet a {}\nsheet b { gauge: full  increase: kickback }\n"
+        "sheet c { increase: auto }\n"
+    )
     m = skel.machine
-    assert (m.model, m.needles, m.gauge, m.racking, m.carriers, m.increase, m.cast_on,
-            m.cast_off) == ("X", 300, "half", 2, (1, 2), "split", "tuck", "direct")
+    assert (
+        m.model,
+        m.needles,
+        m.gauge,
+        m.racking,
+        m.carriers,
+        m.increase,
+        m.cast_on,
+        m.cast_off,
+    ) == ("X", 300, "half", 2, (1, 2), "split", "tuck", "direct")
     assert m.span is not None
     assert skel.nodes["a"].props["gauge"] == "half"
     assert skel.nodes["a"].props["increase"] == "split"
@@ -381,12 +426,15 @@ def test_reserved_and_duplicate_node_names():
 
 # ---- interfaces --------------------------------------------------------------------------------
 
+
 def test_interfaces_per_kind():
-    skel = ok("sheet a { width: 4 }\ntube b { width: 2 }\njoint j {}\n"
-              "split s { degree: 3  folded: false }\n"
-              "sheet x { width: 1 }\nsheet y { width: 1 }\nsheet z { width: 2 }\n"
-              "a.top -> j.bottom\nj.top -> s.base\n"
-              "s.branches[0] -> x.bottom\ns.branches[1] -> y.bottom\ns.branches[2] -> z.bottom\n")
+    skel = ok(
+        "sheet a { width: 4 }\ntube b { width: 2 }\njoint j {}\n"
+        "split s { degree: 3  folded: false }\n"
+        "sheet x { width: 1 }\nsheet y { width: 1 }\nsheet z { width: 2 }\n"
+        "a.top -> j.bottom\nj.top -> s.base\n"
+        "s.branches[0] -> x.bottom\ns.branches[1] -> y.bottom\ns.branches[2] -> z.bottom\n"
+    )
     assert skel.nodes["a"].interface_paths == ["bottom", "top"]
     assert skel.nodes["b"].interface_paths == ["bottom", "top"]
     assert skel.nodes["j"].interface_paths == ["bottom", "top"]
@@ -401,27 +449,31 @@ def test_interfaces_per_kind():
 
 
 def test_split_degree_from_param():
-    skel = ok("param d = 4\nsplit s { degree: #d }\n"
-              + "".join(f"tube t{i} {{ width: 2 }}\ns.branches[{i}] -> t{i}.bottom\n"
-                        for i in range(4)))
+    skel = ok(
+        "param d = 4\nsplit s { degree: #d }\n"
+        + "".join(f"tube t{i} {{ width: 2 }}\ns.branches[{i}] -> t{i}.bottom\n" for i in range(4))
+    )
     assert len([i for i in skel.interfaces if i.node == "s"]) == 5
 
 
-@pytest.mark.parametrize("stmt, code", [
-    ("s.branches -> a.bottom", "E213"),
-    ("s.branches[2] -> a.bottom", "E214"),
-    ("s.branches[-1] -> a.bottom", "E214"),
-    ("s.branches[0.5] -> a.bottom", "E214"),
-    ("s.branches[half] -> a.bottom", "E214"),
-    ("s.branches[1 / 0] -> a.bottom", "E305"),
-    ("s.top -> a.bottom", "E215"),
-    ("a.base -> s.base", "E215"),
-    ("a.top[0] -> s.base", "E215"),
-    ("a.side -> s.base", "E215"),
-    ("nope.top -> a.bottom", "E211"),
-    ("start nope.top", "E211"),
-    ("nope.top closed", "E211"),
-])
+@pytest.mark.parametrize(
+    "stmt, code",
+    [
+        ("s.branches -> a.bottom", "E213"),
+        ("s.branches[2] -> a.bottom", "E214"),
+        ("s.branches[-1] -> a.bottom", "E214"),
+        ("s.branches[0.5] -> a.bottom", "E214"),
+        ("s.branches[half] -> a.bottom", "E214"),
+        ("s.branches[1 / 0] -> a.bottom", "E305"),
+        ("s.top -> a.bottom", "E215"),
+        ("a.base -> s.base", "E215"),
+        ("a.top[0] -> s.base", "E215"),
+        ("a.side -> s.base", "E215"),
+        ("nope.top -> a.bottom", "E211"),
+        ("start nope.top", "E211"),
+        ("nope.top closed", "E211"),
+    ],
+)
 def test_bad_interface_references(stmt, code):
     r = compile_("sheet a {}\nsplit s {}\n" + stmt + "\n")
     assert code in errors(r)
@@ -434,6 +486,7 @@ def test_interface_typo_suggestion():
 
 
 # ---- connections and interface states ------------------------------------------------------
+
 
 def test_connection_marks_both_ends_connected():
     skel = ok("tube a { width: 3 }\ntube b { width: 3 }\nb.bottom -> a.top\n")
@@ -451,14 +504,17 @@ def test_connection_before_declarations():
     assert itf(skel, "a.top").state == "connected"
 
 
-@pytest.mark.parametrize("stmt, state, closing", [
-    ("a.bottom closed", "closed", "collapse"),
-    ("a.bottom closed(collapse)", "closed", "collapse"),
-    ("a.bottom closed(zigzag)", "closed", "zigzag"),
-    ("a.bottom closed(zigzagreturn)", "closed", "zigzagreturn"),
-    ("a.bottom open", "open", None),
-    ("a.bottom { cast_on: tuck }", "open", None),
-])
+@pytest.mark.parametrize(
+    "stmt, state, closing",
+    [
+        ("a.bottom closed", "closed", "collapse"),
+        ("a.bottom closed(collapse)", "closed", "collapse"),
+        ("a.bottom closed(zigzag)", "closed", "zigzag"),
+        ("a.bottom closed(zigzagreturn)", "closed", "zigzagreturn"),
+        ("a.bottom open", "open", None),
+        ("a.bottom { cast_on: tuck }", "open", None),
+    ],
+)
 def test_interface_states_and_closing(stmt, state, closing):
     skel = ok("tube a { width: 3 }\n" + stmt + "\n")
     i = itf(skel, "a.bottom")
@@ -479,9 +535,11 @@ def test_unknown_closing_mode():
 
 
 def test_cast_on_and_cast_off():
-    skel = ok("tube a { width: 3 }\n"
-              "a.bottom { cast_on: tuck }\n"
-              "a.top closed(zigzag) { cast_off: direct }\n")
+    skel = ok(
+        "tube a { width: 3 }\n"
+        "a.bottom { cast_on: tuck }\n"
+        "a.top closed(zigzag) { cast_off: direct }\n"
+    )
     b, t = itf(skel, "a.bottom"), itf(skel, "a.top")
     assert (b.state, b.cast_on, b.cast_off) == ("open", "tuck", "auto")
     assert (t.state, t.closing, t.cast_on, t.cast_off) == ("closed", "zigzag", "auto", "direct")
@@ -492,32 +550,43 @@ def test_cast_on_from_param():
     assert itf(skel, "a.bottom").cast_on == "precast"
 
 
-@pytest.mark.parametrize("block, code", [
-    ("{ cast_on: glue }", "E312"),
-    ("{ cast_of: pickup }", "E307"),
-    ("{ cast_on: tuck  cast_on: tuck }", "E308"),
-    ("{ cast_on: @length }", "E406"),
-    ("{ cast_on: 3 }", "E311"),
-])
+@pytest.mark.parametrize(
+    "block, code",
+    [
+        ("{ cast_on: glue }", "E312"),
+        ("{ cast_of: pickup }", "E307"),
+        ("{ cast_on: tuck  cast_on: tuck }", "E308"),
+        ("{ cast_on: @length }", "E406"),
+        ("{ cast_on: 3 }", "E311"),
+    ],
+)
 def test_interface_block_errors(block, code):
     assert code in errors(compile_("tube a { width: 3 }\na.bottom " + block + "\n"))
 
 
-@pytest.mark.parametrize("text, code", [
-    ("tube a {width: 3}\ntube b {width: 3}\ntube c {width: 3}\n"
-     "a.top -> b.bottom\na.top -> c.bottom\n", "E501"),
-    ("tube a {width: 3}\ntube b {width: 3}\nb.bottom closed\na.top -> b.bottom\n", "E502"),
-    ("tube a {width: 3}\ntube b {width: 3}\na.top -> b.bottom\nb.bottom closed\n", "E502"),
-    ("tube a {width: 3}\na.top -> a.bottom\n", "E503"),
-    ("tube a {width: 3}\na.top -> a.top\n", "E503"),
-])
+@pytest.mark.parametrize(
+    "text, code",
+    [
+        (
+            "tube a {width: 3}\ntube b {width: 3}\ntube c {width: 3}\n"
+            "a.top -> b.bottom\na.top -> c.bottom\n",
+            "E501",
+        ),
+        ("tube a {width: 3}\ntube b {width: 3}\nb.bottom closed\na.top -> b.bottom\n", "E502"),
+        ("tube a {width: 3}\ntube b {width: 3}\na.top -> b.bottom\nb.bottom closed\n", "E502"),
+        ("tube a {width: 3}\na.top -> a.bottom\n", "E503"),
+        ("tube a {width: 3}\na.top -> a.top\n", "E503"),
+    ],
+)
 def test_connection_errors(text, code):
     assert code in errors(compile_(text))
 
 
 def test_double_connection_keeps_the_first():
-    r = compile_("tube a {width: 3}\ntube b {width: 3}\ntube c {width: 3}\n"
-                 "a.top -> b.bottom\na.top -> c.bottom\n")
+    r = compile_(
+        "tube a {width: 3}\ntube b {width: 3}\ntube c {width: 3}\n"
+        "a.top -> b.bottom\na.top -> c.bottom\n"
+    )
     assert errors(r) == ["E501"]
     d = r.diagnostics.items[0]
     assert d.notes and d.notes[0].span.line == 4
@@ -527,6 +596,7 @@ def test_double_connection_keeps_the_first():
 
 
 # ---- yarn starts and components -------------------------------------------------------------
+
 
 def test_declared_start():
     skel = ok("tube a { width: 3 }\ntube b { width: 3 }\na.top -> b.bottom\nstart b.top\n")
@@ -555,28 +625,40 @@ def test_inferred_start_counts_closed_interfaces_as_free():
 
 
 def test_inferred_start_on_a_split():
-    skel = ok("split s { degree: 2 }\ntube a { width: 2 }\ntube b { width: 2 }\n"
-              "tube c { width: 4 }\nc.top -> s.base\ns.branches[1] -> b.bottom\n"
-              "a.bottom -> s.branches[0]\n")
+    skel = ok(
+        "split s { degree: 2 }\ntube a { width: 2 }\ntube b { width: 2 }\n"
+        "tube c { width: 4 }\nc.top -> s.base\ns.branches[1] -> b.bottom\n"
+        "a.bottom -> s.branches[0]\n"
+    )
     # s has no free interface; a.top is the first free one in declaration order.
     assert [s.itf for s in skel.starts] == [ItfId("a", "top")]
 
 
 def test_components_and_one_start_each():
-    skel = ok("tube a { width: 3 }\ntube x { width: 3 }\ntube b { width: 3 }\n"
-              "tube y { width: 3 }\nsheet lone {}\n"
-              "a.top -> b.bottom\ny.bottom -> x.top\nstart y.top\n")
+    skel = ok(
+        "tube a { width: 3 }\ntube x { width: 3 }\ntube b { width: 3 }\n"
+        "tube y { width: 3 }\nsheet lone {}\n"
+        "a.top -> b.bottom\ny.bottom -> x.top\nstart y.top\n"
+    )
     assert skel.components() == [["a", "b"], ["x", "y"], ["lone"]]
     assert [(str(s.itf), s.inferred) for s in skel.starts] == [
-        ("a.bottom", True), ("y.top", False), ("lone.bottom", True)]
+        ("a.bottom", True),
+        ("y.top", False),
+        ("lone.bottom", True),
+    ]
 
 
-@pytest.mark.parametrize("text, code", [
-    ("tube a {width: 3}\ntube b {width: 3}\na.top -> b.bottom\nstart a.top\n", "E506"),
-    ("tube a {width: 3}\ntube b {width: 3}\na.top -> b.bottom\nstart a.bottom\nstart b.top\n",
-     "E507"),
-    ("tube a {width: 3}\ntube b {width: 3}\na.top -> b.bottom\nb.top -> a.bottom\n", "E508"),
-])
+@pytest.mark.parametrize(
+    "text, code",
+    [
+        ("tube a {width: 3}\ntube b {width: 3}\na.top -> b.bottom\nstart a.top\n", "E506"),
+        (
+            "tube a {width: 3}\ntube b {width: 3}\na.top -> b.bottom\nstart a.bottom\nstart b.top\n",
+            "E507",
+        ),
+        ("tube a {width: 3}\ntube b {width: 3}\na.top -> b.bottom\nb.top -> a.bottom\n", "E508"),
+    ],
+)
 def test_start_errors(text, code):
     assert code in errors(compile_(text))
 
@@ -597,16 +679,19 @@ def test_graph_view():
 
 # ---- imports ---------------------------------------------------------------------------------
 
+
 def test_import_whole_stdlib_module():
     skel = ok("import std.stitches\n")
     assert {"rib", "seed", "garter", "basket", "eyelets", "cable", "tuck_stitch"} <= set(
-        skel.patterns)
+        skel.patterns
+    )
     assert not skel.actions and not skel.shapers
 
 
 def test_import_selected_names():
-    skel = ok("import std.stitches (rib, seed)\nimport std.actions (purl)\n"
-              "import std.shapers (edges)\n")
+    skel = ok(
+        "import std.stitches (rib, seed)\nimport std.actions (purl)\nimport std.shapers (edges)\n"
+    )
     assert set(skel.patterns) == {"rib", "seed"}
     assert set(skel.actions) == {"purl"}
     assert set(skel.shapers) == {"edges"}
@@ -619,11 +704,13 @@ def test_import_every_std_module():
 
 
 def test_imported_definitions_are_usable():
-    skel = ok("import std.stitches (rib)\nimport std.actions (purl)\n"
-              "import std.shapers (zigzag)\n"
-              "tube a { width: [0: 6, 1: 8]  shaper: zigzag }\n"
-              "pattern a {\n  apply rib(2, 2) where courses(0 : 3)\n  use purl where "
-              "courses(4)\n}\n")
+    skel = ok(
+        "import std.stitches (rib)\nimport std.actions (purl)\n"
+        "import std.shapers (zigzag)\n"
+        "tube a { width: [0: 6, 1: 8]  shaper: zigzag }\n"
+        "pattern a {\n  apply rib(2, 2) where courses(0 : 3)\n  use purl where "
+        "courses(4)\n}\n"
+    )
     assert skel.nodes["a"].props["shaper"] == "zigzag"
     assert [lay.target for lay in skel.layers] == ["a", "a"]
 
@@ -633,11 +720,14 @@ def test_pattern_without_import_is_unknown():
     assert "E218" in errors(r)
 
 
-@pytest.mark.parametrize("text, code", [
-    ("import std.stiches\n", "E202"),
-    ("import std.stitches (ribb)\n", "E208"),
-    ('import "no/such/file.knit"\n', "E203"),
-])
+@pytest.mark.parametrize(
+    "text, code",
+    [
+        ("import std.stiches\n", "E202"),
+        ("import std.stitches (ribb)\n", "E208"),
+        ('import "no/such/file.knit"\n', "E203"),
+    ],
+)
 def test_import_errors(text, code):
     assert code in errors(compile_(text))
 
@@ -649,8 +739,9 @@ def test_same_definition_imported_twice_is_fine():
 
 def test_two_imports_of_one_name(tmp_path):
     (tmp_path / "mine.knit").write_text("pattern rib() { set K }\n", encoding="utf-8")
-    r = compile_('import std.stitches (rib)\nimport "mine.knit"\n',
-                 path=str(tmp_path / "main.knit"))
+    r = compile_(
+        'import std.stitches (rib)\nimport "mine.knit"\n', path=str(tmp_path / "main.knit")
+    )
     assert "E204" in errors(r)
 
 
@@ -663,10 +754,13 @@ def test_unknown_stdlib_module_suggestion():
 def test_file_import_relative_to_importer(tmp_path):
     (tmp_path / "parts").mkdir()
     (tmp_path / "parts" / "lace.knit").write_text(
-        "pattern holes() { set FR1 where filter(wale % 4 == 0) }\n", encoding="utf-8")
+        "pattern holes() { set FR1 where filter(wale % 4 == 0) }\n", encoding="utf-8"
+    )
     main = tmp_path / "main.knit"
-    skel = ok('import "parts/lace.knit"\ntube a { width: 6 }\npattern a { apply holes() }\n',
-              path=str(main))
+    skel = ok(
+        'import "parts/lace.knit"\ntube a { width: 6 }\npattern a { apply holes() }\n',
+        path=str(main),
+    )
     assert set(skel.patterns) == {"holes"}
 
 
@@ -677,10 +771,8 @@ def test_file_import_of_garment_parts_is_rejected(tmp_path):
 
 
 def test_import_cycle(tmp_path):
-    (tmp_path / "a.knit").write_text('import "b.knit"\npattern pa() { set K }\n',
-                                     encoding="utf-8")
-    (tmp_path / "b.knit").write_text('import "a.knit"\npattern pb() { set P }\n',
-                                     encoding="utf-8")
+    (tmp_path / "a.knit").write_text('import "b.knit"\npattern pa() { set K }\n', encoding="utf-8")
+    (tmp_path / "b.knit").write_text('import "a.knit"\npattern pb() { set P }\n', encoding="utf-8")
     r = compile_('import "a.knit"\n', path=str(tmp_path / "main.knit"))
     assert "E206" in errors(r)
 
@@ -697,11 +789,13 @@ def test_local_definition_twice():
 def test_a_selective_import_brings_what_the_definition_applies(tmp_path):
     """`import "m.knit" (outer)` makes `outer`'s own `apply inner()` work, although
     `inner` was not named (definitions share one namespace)."""
-    (tmp_path / "m.knit").write_text("pattern inner() { set P }\n"
-                                     "pattern outer() { apply inner() where courses(0) }\n")
+    (tmp_path / "m.knit").write_text(
+        "pattern inner() { set P }\npattern outer() { apply inner() where courses(0) }\n"
+    )
     main = tmp_path / "main.knit"
-    main.write_text('import "m.knit" (outer)\nsheet s { length: 3  width: 4 }\n'
-                    "pattern s { apply outer() }\n")
+    main.write_text(
+        'import "m.knit" (outer)\nsheet s { length: 3  width: 4 }\npattern s { apply outer() }\n'
+    )
     r = compile_source(main.read_text(), str(main), until="stitch-graph")
     assert not r.diagnostics.has_errors, r.diagnostics.render()
     assert int((r.graph.instr == 1).sum()) == 4  # course 0 purled through `inner`

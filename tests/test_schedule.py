@@ -28,11 +28,13 @@ from knitc.scheduling.slices import ACTIVE, Slices
 from knitc.shaping.stitch_graph import StitchGraph, empty_pair
 
 ROOT = Path(__file__).resolve().parent.parent
-EXAMPLES = sorted((ROOT / "examples").glob("*.knit")) + \
-    sorted((ROOT / "examples" / "knitskel").glob("*.knit"))
+EXAMPLES = sorted((ROOT / "examples").glob("*.knit")) + sorted(
+    (ROOT / "examples" / "knitskel").glob("*.knit")
+)
 
 
 # ---- hand-made graphs and slices ----------------------------------------------------------------
+
 
 class Graph:
     """Courses of a few nodes and the wales between them, built into a StitchGraph."""
@@ -84,38 +86,71 @@ class Graph:
             wn[a, int(wn[a, 0] >= 0)] = b
             wp[b, int(wp[b, 0] >= 0)] = a
         return StitchGraph(
-            node_names=list(self.nodes), spans=[None], node=node, course=course, side=side,
-            needle=needle, cprev=cprev, cnext=cnext, wale_prev=wp, wale_next=wn,
-            instr=np.zeros(n, np.uint8), action=np.full(n, -1, np.int16),
-            span=np.zeros(n, np.int32), course_start=start,
+            node_names=list(self.nodes),
+            spans=[None],
+            node=node,
+            course=course,
+            side=side,
+            needle=needle,
+            cprev=cprev,
+            cnext=cnext,
+            wale_prev=wp,
+            wale_next=wn,
+            instr=np.zeros(n, np.uint8),
+            action=np.full(n, -1, np.int16),
+            span=np.zeros(n, np.int32),
+            course_start=start,
             course_len=np.array([c[1] for c in self.courses], np.int32),
             course_node=np.array([c[0] for c in self.courses], np.int32),
             course_circular=np.array([c[2] for c in self.courses], bool),
             course_kind=np.zeros(nc, np.int8),
-            course_gauge=np.array([c[3] for c in self.courses], np.int8))
+            course_gauge=np.array([c[3] for c in self.courses], np.int8),
+        )
 
 
-def make_slices(g: StitchGraph, cycles: list[list[int]], circular: list[bool],
-                gauge: list[int] | None = None, states: list[list[int]] | None = None
-                ) -> Slices:
+def make_slices(
+    g: StitchGraph,
+    cycles: list[list[int]],
+    circular: list[bool],
+    gauge: list[int] | None = None,
+    states: list[list[int]] | None = None,
+) -> Slices:
     """Slices with the given cycles (all ACTIVE unless `states` says otherwise)."""
     k = len(cycles)
     length = np.array([len(c) for c in cycles], np.int32)
     start = np.concatenate([[0], np.cumsum(length)[:-1]]).astype(np.int64)
     stitch = np.concatenate([np.array(c, np.int32) for c in cycles])
-    state = np.concatenate([np.array(s, np.uint8) for s in states]) if states else \
-        np.full(stitch.shape[0], ACTIVE, np.uint8)
-    visits = np.array([int(np.count_nonzero(state[a:a + n] == ACTIVE))
-                       for a, n in zip(start, length, strict=True)], np.int32)
+    state = (
+        np.concatenate([np.array(s, np.uint8) for s in states])
+        if states
+        else np.full(stitch.shape[0], ACTIVE, np.uint8)
+    )
+    visits = np.array(
+        [
+            int(np.count_nonzero(state[a : a + n] == ACTIVE))
+            for a, n in zip(start, length, strict=True)
+        ],
+        np.int32,
+    )
     return Slices(
         node=np.array([int(g.node[c[0]]) for c in cycles], np.int32),
-        yarn=np.zeros(k, np.int16), dir=np.ones(k, np.int8), fresh=np.ones(k, bool),
+        yarn=np.zeros(k, np.int16),
+        dir=np.ones(k, np.int8),
+        fresh=np.ones(k, bool),
         circular=np.array(circular, bool),
         visit=np.concatenate([[0], np.cumsum(visits)[:-1]]).astype(np.int64),
-        visits=visits, start=start, length=length, shaping=np.zeros(k, np.int32),
-        limit=np.full(k, 4, np.int32), cast_on=np.zeros(k, bool), cast_off=np.zeros(k, bool),
-        gauge=np.array(gauge or [1] * k, np.int8), derived_from=np.full(k, -1, np.int64),
-        stitch=stitch, state=state)
+        visits=visits,
+        start=start,
+        length=length,
+        shaping=np.zeros(k, np.int32),
+        limit=np.full(k, 4, np.int32),
+        cast_on=np.zeros(k, bool),
+        cast_off=np.zeros(k, bool),
+        gauge=np.array(gauge or [1] * k, np.int8),
+        derived_from=np.full(k, -1, np.int64),
+        stitch=stitch,
+        state=state,
+    )
 
 
 def run(g: StitchGraph, s: Slices, needles: int = 200, **kw) -> ir.Schedule:
@@ -137,6 +172,7 @@ def ring_wales(G: Graph, a: list[int], b: list[int]) -> None:
 
 
 # ---- layout families (ch. 6.7.2) ----------------------------------------------------------------
+
 
 @pytest.mark.parametrize("n", range(2, 12))
 def test_circular_layouts_are_5n_for_even_and_4n_for_odd(n):
@@ -194,6 +230,7 @@ def test_flat_layouts_cover_the_row_the_single_fold_and_the_c_shape():
 
 # ---- the cost tuple (eq. 6.21) -------------------------------------------------------------------
 
+
 def test_cost_tuple_on_hand_made_pairs():
     b0, r0 = ir.circular_layouts(8, 0, np.array([0]))
     b1, r1 = ir.circular_layouts(8, 0, np.array([1]))
@@ -209,6 +246,7 @@ def test_cost_tuple_on_hand_made_pairs():
 
 
 # ---- within a node: the reuse shortcut ---------------------------------------------------------
+
 
 def test_plain_courses_reuse_their_layout_even_when_the_cycle_is_rotated():
     G = Graph()
@@ -227,11 +265,14 @@ def test_plain_courses_reuse_their_layout_even_when_the_cycle_is_rotated():
     assert all(p2[c2[i]] == p1[c1[i]] for i in range(8))
 
 
-@pytest.mark.parametrize("text", [
-    "tube t { length: 30, width: 12 }",
-    "sheet s { type: flat, length: 30, width: 12 }",
-    "tube t { length: 20, width: 9, gauge: half }",
-])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "tube t { length: 30, width: 12 }",
+        "sheet s { type: flat, length: 30, width: 12 }",
+        "tube t { length: 20, width: 9, gauge: half }",
+    ],
+)
 def test_plain_tube_and_sheet_have_no_roll_and_no_shift(text):
     r = compile_source(text, "t.knit", until="schedule")
     assert r.ok, r.diagnostics.render()
@@ -264,8 +305,9 @@ def test_a_gauge_change_keeps_the_layout_in_place():
 
 
 def test_a_shaping_slice_moves_only_the_loops_it_must():
-    r = compile_source("tube t { length: 12, width: [0: 8, 1: 11], shaper: sides }", "t.knit",
-                       until="schedule")
+    r = compile_source(
+        "tube t { length: 12, width: [0: 8, 1: 11], shaper: sides }", "t.knit", until="schedule"
+    )
     assert r.ok, r.diagnostics.render()
     sched = r.schedule
     increases = int(((r.graph.wale_next >= 0).sum(1) == 2).sum())
@@ -276,13 +318,15 @@ def test_a_shaping_slice_moves_only_the_loops_it_must():
 
 # ---- between nodes: bridges and orders --------------------------------------------------------
 
+
 def test_bridges_order_three_branches_with_the_middle_one_between():
     orders = valid_orders([0, 1, 2], {frozenset((0, 1)), frozenset((1, 2))})
     assert orders == {(0, 1, 2), (2, 1, 0)}
     assert valid_orders([0, 1], {frozenset((0, 1))}) == {(0, 1), (1, 0)}
     # a ring of bridges (an unfolded split) allows no line: no pruning
-    assert valid_orders([0, 1, 2], {frozenset((0, 1)), frozenset((1, 2)),
-                                    frozenset((2, 0))}) is None
+    assert (
+        valid_orders([0, 1, 2], {frozenset((0, 1)), frozenset((1, 2)), frozenset((2, 0))}) is None
+    )
 
 
 def _merge(n_branches: int, w: int = 4):
@@ -293,8 +337,8 @@ def _merge(n_branches: int, w: int = 4):
     base = G.course("base", 2 * w * n_branches)
     fronts = [b[:w] for b in branches]
     backs = [b[w:] for b in branches]
-    base_front = base[:w * n_branches]
-    base_back = base[w * n_branches:]
+    base_front = base[: w * n_branches]
+    base_back = base[w * n_branches :]
     ring_wales(G, [x for f in fronts for x in f], base_front)
     ring_wales(G, [x for b in backs[::-1] for x in b], base_back)
     g = G.build()
@@ -325,6 +369,7 @@ def test_a_three_to_one_merge_keeps_the_middle_branch_in_the_middle():
 
 
 # ---- offsets --------------------------------------------------------------------------------
+
 
 def test_held_branches_never_overlap_the_knitted_one():
     g, s, branches, base = _merge(3)
@@ -378,18 +423,23 @@ def test_blocks_fit_the_bed_or_fail_with_e601():
 
 
 def test_e601_from_the_driver():
-    r = compile_source("machine { needles: 30 }\ntube t { length: 3, width: 40 }", "t.knit",
-                       until="schedule")
+    r = compile_source(
+        "machine { needles: 30 }\ntube t { length: 3, width: 40 }", "t.knit", until="schedule"
+    )
     assert [d.code for d in r.diagnostics if d.is_error] == ["E601"]
     assert r.schedule is None
 
 
 # ---- half gauge (ch. 6.8.2) ----------------------------------------------------------------
 
+
 def test_half_gauge_puts_fronts_on_even_and_backs_on_odd_needles_facing_empty_ones():
-    r = compile_source("tube h { length: 6, width: 5, gauge: half }\n"
-                       "tube f { length: 4, width: 5 }\nh.top -> f.bottom", "t.knit",
-                       until="schedule")
+    r = compile_source(
+        "tube h { length: 6, width: 5, gauge: half }\n"
+        "tube f { length: 4, width: 5 }\nh.top -> f.bottom",
+        "t.knit",
+        until="schedule",
+    )
     assert r.ok, r.diagnostics.render()
     sched, s = r.schedule, r.slices
     assert set(sched.step.tolist()) == {1, 2}
@@ -399,11 +449,13 @@ def test_half_gauge_puts_fronts_on_even_and_backs_on_odd_needles_facing_empty_on
             assert np.all(needle % 2 == bed)
             taken = set(zip(bed.tolist(), needle.tolist(), strict=True))
             assert not any((1 - b, n) in taken for b, n in taken)
-            assert np.array_equal(needle, sched.offset[k] + 2 * sched.rel[
-                s.start[k]:s.start[k] + s.length[k]] + bed)
+            assert np.array_equal(
+                needle, sched.offset[k] + 2 * sched.rel[s.start[k] : s.start[k] + s.length[k]] + bed
+            )
 
 
 # ---- the code generator's helpers ------------------------------------------------------------
+
 
 def test_positions_and_alignments_are_what_the_code_generator_reads():
     g, s, branches, base = _merge(2)
@@ -414,16 +466,23 @@ def test_positions_and_alignments_are_what_the_code_generator_reads():
     # branch 0 waits on the bed while branch 1 is knitted (slice 1): move one of its loops
     # out of the way by hand and read it back
     far = int(sched.width) + 5
-    moved = replace(sched, align_slice=np.array([1], np.int32),
-                    align_stitch=np.array([branches[0][0]], np.int32),
-                    align_bed=np.array([0], np.int8), align_needle=np.array([far], np.int32))
+    moved = replace(
+        sched,
+        align_slice=np.array([1], np.int32),
+        align_stitch=np.array([branches[0][0]], np.int32),
+        align_bed=np.array([0], np.int8),
+        align_needle=np.array([far], np.int32),
+    )
     got = ir.alignments(moved, 1)
     assert [x.tolist() for x in got] == [[branches[0][0]], [0], [far]]
     assert all(a.size == 0 for a in ir.alignments(moved, 0))
     assert ir.verify(g, moved) == []
     # onto a needle of the branch being knitted: two loops on one needle
-    clash = replace(moved, align_needle=np.array([int(ir.positions(sched, 1)[3][0])], np.int32),
-                    align_bed=np.array([int(ir.positions(sched, 1)[2][0])], np.int8))
+    clash = replace(
+        moved,
+        align_needle=np.array([int(ir.positions(sched, 1)[3][0])], np.int32),
+        align_bed=np.array([int(ir.positions(sched, 1)[2][0])], np.int8),
+    )
     assert any("two loops" in p for p in ir.verify(g, clash))
     # a loop that is not waiting then (branch 1 is in the cycle of slice 1)
     wrong = replace(moved, align_stitch=np.array([branches[1][0]], np.int32))
@@ -435,8 +494,7 @@ def test_the_verifier_rejects_broken_schedules():
     sched = run(g, s)
     n = sched.needle.copy()
     n[1] = n[0]
-    assert any("two loops" in p or "expansion" in p for p in ir.verify(g, replace(sched,
-                                                                                  needle=n)))
+    assert any("two loops" in p or "expansion" in p for p in ir.verify(g, replace(sched, needle=n)))
     r = sched.rel.copy()
     r[0] += 3
     assert any("parameters" in p for p in ir.verify(g, replace(sched, rel=r)))
@@ -444,6 +502,7 @@ def test_the_verifier_rejects_broken_schedules():
 
 
 # ---- JSON -------------------------------------------------------------------------------------
+
 
 def test_emit_schedule_is_stable_with_stats_first(tmp_path, capsys):
     path = ROOT / "examples" / "sock.knit"
@@ -465,20 +524,20 @@ def test_emit_schedule_is_stable_with_stats_first(tmp_path, capsys):
 
 # ---- against the fixed layout -------------------------------------------------------------------
 
+
 def fixed_layout_moves(g: StitchGraph, needles: int) -> tuple[int, int]:
     """Loop moves of the fixed layout: every loop goes from its stitch's needle to that of
     its first next wale."""
     lay = layout(g, needles, Diagnostics())
     c = g.wale_next[:, 0]
     has = c >= 0
-    return (int(np.count_nonzero(lay.bed[has] != lay.bed[c[has]])),
-            int(np.count_nonzero(lay.needle[has] != lay.needle[c[has]])))
+    return (
+        int(np.count_nonzero(lay.bed[has] != lay.bed[c[has]])),
+        int(np.count_nonzero(lay.needle[has] != lay.needle[c[has]])),
+    )
 
 
-
-
-@pytest.mark.parametrize("path", EXAMPLES,
-                         ids=lambda p: str(p.relative_to(ROOT / "examples")))
+@pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: str(p.relative_to(ROOT / "examples")))
 def test_schedule_moves_no_more_loops_than_the_fixed_layout(path):
     r = compile_source(path.read_text(), str(path), until="schedule")
     assert r.schedule is not None, r.diagnostics.render()

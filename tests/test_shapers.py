@@ -34,17 +34,37 @@ def seq(text: str) -> list[int]:
 
 
 TABLE = {
-    "uniform": {(4, 5): "0,1,1,2,3", (4, 6): "0,0,1,2,2,3", (5, 7): "0,1,1,2,3,3,4",
-                (10, 13): "0,1,1,2,3,4,4,5,6,7,8,8,9"},
-    "center": {(4, 5): "0,1,2,2,3", (4, 6): "0,1,1,2,2,3", (5, 7): "0,1,2,2,3,3,4",
-               (10, 13): "0,1,2,3,4,4,5,5,6,6,7,8,9"},
+    "uniform": {
+        (4, 5): "0,1,1,2,3",
+        (4, 6): "0,0,1,2,2,3",
+        (5, 7): "0,1,1,2,3,3,4",
+        (10, 13): "0,1,1,2,3,4,4,5,6,7,8,8,9",
+    },
+    "center": {
+        (4, 5): "0,1,2,2,3",
+        (4, 6): "0,1,1,2,2,3",
+        (5, 7): "0,1,2,2,3,3,4",
+        (10, 13): "0,1,2,3,4,4,5,5,6,6,7,8,9",
+    },
     # the table abbreviates with "…"; the elided stitches map straight up
-    "left": {(4, 5): "0,0,1,2,3", (4, 6): "0,0,1,1,2,3", (5, 7): "0,0,1,1,2,3,4",
-             (10, 13): "0,0,1,1,2,2,3,4,5,6,7,8,9"},
-    "right": {(4, 5): "0,1,2,3,3", (4, 6): "0,1,2,2,3,3", (5, 7): "0,1,2,3,3,4,4",
-              (10, 13): "0,1,2,3,4,5,6,7,7,8,8,9,9"},
-    "sides": {(4, 5): "0,0,1,2,3", (4, 6): "0,0,1,2,3,3", (5, 7): "0,0,1,2,3,4,4",
-              (10, 13): "0,0,1,1,2,3,4,5,6,7,8,9,9"},
+    "left": {
+        (4, 5): "0,0,1,2,3",
+        (4, 6): "0,0,1,1,2,3",
+        (5, 7): "0,0,1,1,2,3,4",
+        (10, 13): "0,0,1,1,2,2,3,4,5,6,7,8,9",
+    },
+    "right": {
+        (4, 5): "0,1,2,3,3",
+        (4, 6): "0,1,2,2,3,3",
+        (5, 7): "0,1,2,3,3,4,4",
+        (10, 13): "0,1,2,3,4,5,6,7,7,8,8,9,9",
+    },
+    "sides": {
+        (4, 5): "0,0,1,2,3",
+        (4, 6): "0,0,1,2,3,3",
+        (5, 7): "0,0,1,2,3,4,4",
+        (10, 13): "0,0,1,1,2,3,4,5,6,7,8,9,9",
+    },
 }
 
 sizes = st.integers(1, 200).flatmap(lambda m: st.tuples(st.just(m), st.integers(m, 2 * m)))
@@ -66,8 +86,11 @@ def mirror(src: np.ndarray, M: int) -> np.ndarray:
 
 # ---- the predefined shapers ------------------------------------------------------------------
 
-@pytest.mark.parametrize("name, M, N, expected", [
-    (name, M, N, text) for name, row in TABLE.items() for (M, N), text in row.items()])
+
+@pytest.mark.parametrize(
+    "name, M, N, expected",
+    [(name, M, N, text) for name, row in TABLE.items() for (M, N), text in row.items()],
+)
 def test_verified_table(name, M, N, expected):
     assert shape(name, M, N).tolist() == seq(expected)
     assert len(seq(expected)) == N
@@ -199,24 +222,40 @@ def test_none_and_unknown_names():
 def test_wales_between_reads_decreases_backwards():
     src = shape("left", 4, 6)  # 0,0,1,1,2,3
     prev, nxt = wales_between(4, 6, src)
-    assert list(zip(prev.tolist(), nxt.tolist())) == [(0, 0), (0, 1), (1, 2), (1, 3), (2, 4),
-                                                      (3, 5)]
+    assert list(zip(prev.tolist(), nxt.tolist())) == [
+        (0, 0),
+        (0, 1),
+        (1, 2),
+        (1, 3),
+        (2, 4),
+        (3, 5),
+    ]
     prev, nxt = wales_between(6, 4, src)
-    assert list(zip(prev.tolist(), nxt.tolist())) == [(0, 0), (1, 0), (2, 1), (3, 1), (4, 2),
-                                                      (5, 3)]
+    assert list(zip(prev.tolist(), nxt.tolist())) == [
+        (0, 0),
+        (1, 0),
+        (2, 1),
+        (3, 1),
+        (4, 2),
+        (5, 3),
+    ]
 
 
 # ---- the validator ---------------------------------------------------------------------------
 
-@pytest.mark.parametrize("M, N, small, large, needle, pair", [
-    (2, 3, [0, 0, 2], [0, 1, 2], "outside the smaller course", 2),
-    (2, 3, [0, 0, 1], [0, 1, 3], "outside the larger course", 2),
-    (2, 3, [0, 0, 1, 1], [0, 1, 1, 2], "mapped twice", 2),
-    (2, 3, [0, 1], [0, 2], "stitch 1 of the larger course is not mapped", None),
-    (2, 4, [0, 0, 0, 1], [0, 1, 2, 3], "more than 2", 2),
-    (3, 3, [0, 0, 2], [0, 1, 2], "stitch 1 of the smaller course maps nowhere", None),
-    (2, 2, [0, 1], [1, 0], "wales cross", 1),
-])
+
+@pytest.mark.parametrize(
+    "M, N, small, large, needle, pair",
+    [
+        (2, 3, [0, 0, 2], [0, 1, 2], "outside the smaller course", 2),
+        (2, 3, [0, 0, 1], [0, 1, 3], "outside the larger course", 2),
+        (2, 3, [0, 0, 1, 1], [0, 1, 1, 2], "mapped twice", 2),
+        (2, 3, [0, 1], [0, 2], "stitch 1 of the larger course is not mapped", None),
+        (2, 4, [0, 0, 0, 1], [0, 1, 2, 3], "more than 2", 2),
+        (3, 3, [0, 0, 2], [0, 1, 2], "stitch 1 of the smaller course maps nowhere", None),
+        (2, 2, [0, 1], [1, 0], "wales cross", 1),
+    ],
+)
 def test_validator_names_the_offending_wale(M, N, small, large, needle, pair):
     with pytest.raises(MappingError) as info:
         mapping_from_pairs(M, N, small, large)
@@ -229,6 +268,7 @@ def test_validator_accepts_any_order():
 
 
 # ---- user shaper programs --------------------------------------------------------------------
+
 
 def stdlib_shapers() -> dict[str, ast.ShaperDef]:
     module = parse(stdlib_module("std.shapers").read_text(encoding="utf-8"), "shapers.knit")
@@ -259,8 +299,10 @@ def test_zigzag_is_valid_and_alternates(mn, turn):
 
 
 @settings(max_examples=200, deadline=None)
-@given(st.integers(2, 200).flatmap(
-    lambda m: st.tuples(st.just(m), st.integers(m, 2 * m - 2))), st.sampled_from([0, 1]))
+@given(
+    st.integers(2, 200).flatmap(lambda m: st.tuples(st.just(m), st.integers(m, 2 * m - 2))),
+    st.sampled_from([0, 1]),
+)
 def test_edges_is_valid_over_its_domain(mn, turn):
     M, N = mn  # documented domain: N - M <= M - 2
     src = shape(STD["edges"], M, N, turn=turn)
@@ -276,8 +318,10 @@ def test_two_edge_shapers_give_the_odd_increase_to_the_edge_turn_names(mn):
     M, N = mn
     assert shape("sides", M, N, turn=1).tolist() == mirror(shape("sides", M, N), M).tolist()
     if N - M <= M - 2:
-        assert shape(STD["edges"], M, N, turn=1).tolist() == \
-            mirror(shape(STD["edges"], M, N), M).tolist()
+        assert (
+            shape(STD["edges"], M, N, turn=1).tolist()
+            == mirror(shape(STD["edges"], M, N), M).tolist()
+        )
 
 
 @settings(max_examples=300, deadline=None)
@@ -295,8 +339,10 @@ def test_uniform_with_a_phase_is_valid_and_keeps_its_spacing(mn, phase):
 
 
 def test_a_phase_moves_uniforms_increases_along_the_course():
-    sites = {tuple(np.flatnonzero(np.bincount(shape("uniform", 20, 21, phase=p)) == 2))
-             for p in (0.0, 0.25, 0.5, 0.75)}
+    sites = {
+        tuple(np.flatnonzero(np.bincount(shape("uniform", 20, 21, phase=p)) == 2))
+        for p in (0.0, 0.25, 0.5, 0.75)
+    }
     assert len(sites) == 4
 
 
@@ -346,15 +392,28 @@ def test_implicit_split_by_two_plain_maps_is_allowed():
 BAD = [
     # (program body, M, N, code, line of the error within the body or None = the name,
     #  text of the message)
-    ("for i in range(M - 1) { i -> i }", 3, 3, "E319", None, "stitch 2 of the larger course "
-     "is not mapped"),
+    (
+        "for i in range(M - 1) { i -> i }",
+        3,
+        3,
+        "E319",
+        None,
+        "stitch 2 of the larger course is not mapped",
+    ),
     ("0 -> 0\n1 -> 2\n2 -> 1", 3, 3, "E319", 3, "wales cross"),
     ("for i in range(M) { i -> i + 1 }", 3, 3, "E319", 1, "stitch 3 is outside the larger"),
     ("for i in range(M) { i - 1 -> i }", 3, 3, "E319", 1, "stitch -1 is outside the smaller"),
     ("for i in range(M) { i -> i }\n1 -> 1", 3, 3, "E319", 2, "mapped twice"),
     ("0 -> 0\n0 -> 1\n0 -> 2\n1 -> 3", 2, 4, "E319", 3, "more than 2"),
     ("0 -> 0\n2 -> 1\n2 -> 2", 3, 3, "E319", None, "stitch 1 of the smaller course maps"),
-    ("for i in range(M) { i -> i / 2 }", 3, 3, "E318", 1, "stitch indices (whole numbers), got 0.5"),
+    (
+        "for i in range(M) { i -> i / 2 }",
+        3,
+        3,
+        "E318",
+        1,
+        "stitch indices (whole numbers), got 0.5",
+    ),
     ("0 -> (0, 2)\n1 -> 1", 2, 3, "E318", 1, "neighbouring"),
     ("0 -> (0, 1, 2)", 1, 2, "E318", 1, "exactly two"),
     # (a statement starting with `(` cannot follow one ending in an expression: it would

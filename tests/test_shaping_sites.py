@@ -18,8 +18,9 @@ from knitc.driver import compile_file
 from knitc.shaping.stitch_graph import StitchGraph
 
 REPO = Path(__file__).resolve().parent.parent
-DESIGNS = sorted((REPO / "examples").glob("*.knit")) + \
-    sorted((REPO / "examples" / "knitskel").glob("*.knit"))
+DESIGNS = sorted((REPO / "examples").glob("*.knit")) + sorted(
+    (REPO / "examples" / "knitskel").glob("*.knit")
+)
 TWO_EDGES = {"sides", "edges"}
 """Shapers that promise the same shaping at both edges (both folds of a tube)."""
 
@@ -39,8 +40,9 @@ def sites(g: StitchGraph, node: str) -> list[tuple[int, int, str]]:
                 parents = [int(x) for x in g.wale_prev[s] if x >= 0]
                 # a closed end joins the beds (two parents, one on each): not shaping
                 inc = len(kids) == 2 and all(g.node[x] == k and g.side[x] == bed for x in kids)
-                dec = len(parents) == 2 and all(g.node[x] == k and g.side[x] == bed
-                                                for x in parents)
+                dec = len(parents) == 2 and all(
+                    g.node[x] == k and g.side[x] == bed for x in parents
+                )
                 if inc or dec:
                     out.append((c, bed, "L" if 2 * i < half.size else "R"))
     return out
@@ -86,17 +88,24 @@ def test_two_edge_shapers_shape_both_edges_alike_course_by_course(case):
     assert beds == {1} or beds == {2}, f"`{name}`: its beds are shaped unlike"
 
 
-@pytest.mark.parametrize("case", [c for c in CASES if c[2] == "uniform"
-                                  and len(sites(c[3], c[1])) >= 8], ids=_id)
+@pytest.mark.parametrize(
+    "case", [c for c in CASES if c[2] == "uniform" and len(sites(c[3], c[1])) >= 8], ids=_id
+)
 def test_uniform_spreads_its_changes_over_the_course(case):
     _, name, _, g = case  # nodes with fewer changes are too little to judge
     found = sites(g, name)
     left = sum(side == "L" for _, _, side in found)
-    assert abs(2 * left - len(found)) <= max(2, len(found) // 5), \
+    assert abs(2 * left - len(found)) <= max(2, len(found) // 5), (
         f"`{name}`: {left} of {len(found)} changes on the left half"
+    )
 
 
 def test_the_shipped_designs_have_two_edge_shaping_to_check():
     names = {(p.stem, n) for p, n, s, _ in CASES if s in TWO_EDGES}
-    assert {("tube", "sleeve"), ("sweater", "sleeve_l"), ("sweater", "sleeve_r"),
-            ("glove", "hand"), ("sock", "toe")} <= names
+    assert {
+        ("tube", "sleeve"),
+        ("sweater", "sleeve_l"),
+        ("sweater", "sleeve_r"),
+        ("glove", "hand"),
+        ("sock", "toe"),
+    } <= names

@@ -23,7 +23,6 @@ from test_oracle_harness import CAST_ON, FINISH  # one shared six-stitch swatch
 ORACLE_LIMITS = {"max_loops": 3, "max_float": 20}
 
 
-
 def sim(text: str, **kw) -> list[Finding]:
     return simulate(read_knitout(text), **kw)
 
@@ -34,8 +33,13 @@ def kinds(findings: list[Finding]) -> list[str]:
 
 # ---- valid programs ---------------------------------------------------------------------------
 
-SAMPLES = {"tiny": tiny, "swatch": flat_swatch, "tube": half_gauge_tube,
-           "every_kind": every_kind, "cast_on": lambda: read_knitout(CAST_ON + FINISH)}
+SAMPLES = {
+    "tiny": tiny,
+    "swatch": flat_swatch,
+    "tube": half_gauge_tube,
+    "every_kind": every_kind,
+    "cast_on": lambda: read_knitout(CAST_ON + FINISH),
+}
 
 
 @pytest.mark.parametrize("name", SAMPLES)
@@ -55,27 +59,34 @@ def test_end_state():
 
 # ---- rules ------------------------------------------------------------------------------------
 
+
 def test_misaligned_xfer():
     [f] = sim(CAST_ON + "xfer f2 b2\nxfer b2 f1\nrack -1\n" + FINISH)
     assert f.kind == "misaligned_xfer" and f.code == "E801" and f.is_error
-    assert f.message == ("b2 and f1 are not aligned at racking 0 in `xfer b2 f1` "
-                         "(they face each other at racking -1)")
+    assert f.message == (
+        "b2 and f1 are not aligned at racking 0 in `xfer b2 f1` "
+        "(they face each other at racking -1)"
+    )
     assert sim(CAST_ON + "xfer f2 b2\nrack -1\nxfer b2 f1\nrack 0\n" + FINISH) == []
 
 
 def test_no_transfer_at_quarter_pitch():
-    assert kinds(sim(CAST_ON + "rack 0.25\nxfer f2 b2\nrack 0\nxfer b2 f2\n" + FINISH)) == \
-        ["misaligned_xfer"]
+    assert kinds(sim(CAST_ON + "rack 0.25\nxfer f2 b2\nrack 0\nxfer b2 f2\n" + FINISH)) == [
+        "misaligned_xfer"
+    ]
 
 
 def test_misaligned_split():
-    assert kinds(sim(CAST_ON + "split + f2 b3 3\nxfer b3 f2\n" + FINISH)) == \
-        ["misaligned_xfer", "misaligned_xfer"]
+    assert kinds(sim(CAST_ON + "split + f2 b3 3\nxfer b3 f2\n" + FINISH)) == [
+        "misaligned_xfer",
+        "misaligned_xfer",
+    ]
 
 
 def test_loops_follow_transfers():
-    s = Simulator(read_knitout(CAST_ON + "xfer f2 b2\nrack -1\nxfer b2 f1\nrack 0\n"
-                               "split + f1 b1 3\n"))
+    s = Simulator(
+        read_knitout(CAST_ON + "xfer f2 b2\nrack -1\nxfer b2 f1\nrack 0\nsplit + f1 b1 3\n")
+    )
     s.run()
     assert s.loops[Needle("f", 1)] == 1 and s.loops[Needle("b", 1)] == 2
     assert Needle("f", 2) not in s.loops and Needle("b", 2) not in s.loops
@@ -87,8 +98,11 @@ def test_carrier_not_in():
     assert fs[0].op == 14 and "carrier 5 is used by `knit + f1 5` but is not in" in fs[0].message
     assert kinds(sim(CAST_ON + "out 5\n" + FINISH)) == ["carrier_not_in"]
     # after the carrier goes out, using it again is reported again
-    assert kinds(sim(CAST_ON + FINISH + "knit + f1 3\nknit + f2 3\n",
-                     check_end=False)) == ["carrier_not_in", "knit_on_empty", "knit_on_empty"]
+    assert kinds(sim(CAST_ON + FINISH + "knit + f1 3\nknit + f2 3\n", check_end=False)) == [
+        "carrier_not_in",
+        "knit_on_empty",
+        "knit_on_empty",
+    ]
 
 
 def test_carrier_state():
@@ -98,16 +112,25 @@ def test_carrier_state():
     assert sim(CAST_ON + "in 4\nknit + f1 4\nout 4\n" + FINISH) == []
 
 
-@pytest.mark.parametrize("text, message", [
-    (CAST_ON.replace("releasehook 3\n", "") + FINISH, "still on the inserting hook"),
-    ("inhook 3\nreleasehook 3\n" + CAST_ON.replace("inhook 3\n", "") + FINISH,
-     "before any stitch"),
-    (CAST_ON + "releasehook 3\n" + FINISH, "holds nothing"),
-    (CAST_ON.replace("releasehook 3", "releasehook 4") + FINISH, "holds carrier(s) 3"),
-    (CAST_ON.replace("releasehook 3\n", "inhook 4\n") + FINISH, "still holds carrier(s) 3"),
-    (CAST_ON.replace("tuck - f6 3\ntuck - f4 3\ntuck - f2 3\n", "")
-     + "tuck - f6 3\ntuck - f4 3\ntuck - f2 3\n" + FINISH, "must go leftward"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (CAST_ON.replace("releasehook 3\n", "") + FINISH, "still on the inserting hook"),
+        (
+            "inhook 3\nreleasehook 3\n" + CAST_ON.replace("inhook 3\n", "") + FINISH,
+            "before any stitch",
+        ),
+        (CAST_ON + "releasehook 3\n" + FINISH, "holds nothing"),
+        (CAST_ON.replace("releasehook 3", "releasehook 4") + FINISH, "holds carrier(s) 3"),
+        (CAST_ON.replace("releasehook 3\n", "inhook 4\n") + FINISH, "still holds carrier(s) 3"),
+        (
+            CAST_ON.replace("tuck - f6 3\ntuck - f4 3\ntuck - f2 3\n", "")
+            + "tuck - f6 3\ntuck - f4 3\ntuck - f2 3\n"
+            + FINISH,
+            "must go leftward",
+        ),
+    ],
+)
 def test_hook_rules(text, message):
     fs = sim(text)
     assert fs and fs[0].kind == "hook" and message in fs[0].message, fs
@@ -141,15 +164,28 @@ def test_needle_range_and_sliders():
     assert kinds(sim(CAST_ON + "drop f-1\n" + FINISH)) == ["needle_range"]
     assert sim(CAST_ON + "miss + f540 3\n" + FINISH) == []
     assert kinds(sim(CAST_ON + "knit + fs3 3\n" + FINISH)) == ["needle_use"]
-    assert kinds(sim(CAST_ON + "xfer f3 bs3\nxfer bs3 fs3\nxfer bs3 f3\n" + FINISH)) == \
-        ["needle_use"]
-    assert kinds(sim(CAST_ON + "xfer f3 bs3\nsplit + bs3 f3 3\nxfer bs3 f3\n" + FINISH)) == \
-        ["needle_use"]
+    assert kinds(sim(CAST_ON + "xfer f3 bs3\nxfer bs3 fs3\nxfer bs3 f3\n" + FINISH)) == [
+        "needle_use"
+    ]
+    assert kinds(sim(CAST_ON + "xfer f3 bs3\nsplit + bs3 f3 3\nxfer bs3 f3\n" + FINISH)) == [
+        "needle_use"
+    ]
     assert sim(CAST_ON + "xfer f3 bs3\nknit + f4 3\nxfer bs3 f3\n" + FINISH) == []
 
 
-@pytest.mark.parametrize("r, ok", [(4, True), (-4, True), (5, False), (-4.75, False),
-                                   (0.25, True), (-0.75, True), (0.5, False), (1.3, False)])
+@pytest.mark.parametrize(
+    "r, ok",
+    [
+        (4, True),
+        (-4, True),
+        (5, False),
+        (-4.75, False),
+        (0.25, True),
+        (-0.75, True),
+        (0.5, False),
+        (1.3, False),
+    ],
+)
 def test_racking(r, ok):
     fs = sim(CAST_ON + f"rack {r}\nrack 0\n" + FINISH)
     assert (fs == []) == ok and all(f.kind == "racking" for f in fs)
@@ -164,10 +200,12 @@ def test_too_many_loops():
     assert sim(two + "tuck - f3 3\n" + FINISH, max_loops=3) == []
     # reported when the count rises, not again while it stays or falls
     fs = sim(two + "tuck - f3 3\nxfer f3 b3\nxfer b3 f3\ntuck + f3 3\n" + FINISH)
-    assert [f.message.split(" after")[0] for f in fs] == ["f3 holds 3 loops (more than 2)",
-                                                          "b3 holds 3 loops (more than 2)",
-                                                          "f3 holds 3 loops (more than 2)",
-                                                          "f3 holds 4 loops (more than 2)"]
+    assert [f.message.split(" after")[0] for f in fs] == [
+        "f3 holds 3 loops (more than 2)",
+        "b3 holds 3 loops (more than 2)",
+        "f3 holds 3 loops (more than 2)",
+        "f3 holds 4 loops (more than 2)",
+    ]
 
 
 def test_knit_on_empty():
@@ -182,16 +220,18 @@ def test_long_float():
     assert fs[0].message == "carrier 3 floats 13 needles from f1 to f14 (more than 12)"
     assert sim(CAST_ON + "tuck + f13 3\n" + FINISH + "drop f13\n") == []
     # misses do not end a float; racking counts (b18 at rack 4 faces f22)
-    assert kinds(sim(CAST_ON + "miss + f9 3\ntuck + f14 3\n" + FINISH + "drop f14\n")) == \
-        ["long_float"]
+    assert kinds(sim(CAST_ON + "miss + f9 3\ntuck + f14 3\n" + FINISH + "drop f14\n")) == [
+        "long_float"
+    ]
     fs = sim(CAST_ON + "rack 4\ntuck + b18 3\nrack 0\n" + FINISH + "drop b18\n", max_float=20)
     assert kinds(fs) == ["long_float"] and "floats 21 needles" in fs[0].message
 
 
 def test_float_follows_a_transferred_loop():
     # the carrier's last loop moves f1 -> b1 -> f5, so the float to f25 is 20 needles, not 24
-    text = CAST_ON + "xfer f1 b1\nrack 4\nxfer b1 f5\nrack 0\ntuck + f25 3\n" + FINISH + \
-        "drop f25\n"
+    text = (
+        CAST_ON + "xfer f1 b1\nrack 4\nxfer b1 f5\nrack 0\ntuck + f25 3\n" + FINISH + "drop f25\n"
+    )
     assert sim(text, max_float=20) == []
     assert "floats 20 needles from f5" in sim(text)[0].message
 
@@ -200,8 +240,9 @@ def test_loops_and_carriers_left():
     p = flat_swatch(drops=False, outhook=False)
     fs = simulate(p)
     assert kinds(fs) == ["loops_left", "carriers_left"]
-    assert fs[0].message == ("8 loop(s) left on 8 needle(s) at the end: f1 f2 f3 f4 f5 f6 f7 "
-                             "f8 (drop or bind off)")
+    assert fs[0].message == (
+        "8 loop(s) left on 8 needle(s) at the end: f1 f2 f3 f4 f5 f6 f7 f8 (drop or bind off)"
+    )
     # both point at the last op that touched them: the last knit of the last row
     assert fs[0].op == fs[1].op == len(p) - 1
     assert fs[0].span == row_span("swatch.knit", 7) and fs[0].stitch == 47
@@ -209,8 +250,9 @@ def test_loops_and_carriers_left():
 
 
 def test_malformed_ops_are_reported_and_skipped():
-    p = MachineProgram(ops=[Op("knit", 1, Needle("f", 1)), Op("xfer", 0, Needle("f", 1)),
-                            Op("rack", value="x")])
+    p = MachineProgram(
+        ops=[Op("knit", 1, Needle("f", 1)), Op("xfer", 0, Needle("f", 1)), Op("rack", value="x")]
+    )
     assert kinds(simulate(p)) == ["malformed"] * 3
     assert simulate(p)[0].message == "`knit` op: carriers missing"
 
@@ -270,7 +312,7 @@ def test_fast_enough():
     for k in range(1, 501, 2):
         p.tuck(+1, Needle("f", k), 3)
     for r in range(200):  # 100,000 knits
-        for k in (range(500, 0, -1) if r % 2 == 0 else range(1, 501)):
+        for k in range(500, 0, -1) if r % 2 == 0 else range(1, 501):
             p.knit(-1 if r % 2 == 0 else 1, Needle("f", k), 3)
         if r == 1:
             p.releasehook(3)
@@ -331,7 +373,7 @@ def swatch_inhook_rightward() -> MachineProgram:
     ops = list(p.ops)
     tucks = [i for i, op in enumerate(ops) if op.kind == "tuck"]
     first, second = tucks[:4], tucks[4:]
-    ops[tucks[0]:tucks[-1] + 1] = [ops[i] for i in second + first]
+    ops[tucks[0] : tucks[-1] + 1] = [ops[i] for i in second + first]
     return MachineProgram(p.machine, ops)
 
 
@@ -346,8 +388,7 @@ BROKEN = {
     "carriers_left": lambda: flat_swatch(outhook=False),
     "both_left": lambda: flat_swatch(drops=False, outhook=False),
     # hazards
-    "too_many_loops": lambda: extra(flat_swatch(), "tuck - f3 3\ntuck + f3 3\ntuck - f3 3\n",
-                                    -9),
+    "too_many_loops": lambda: extra(flat_swatch(), "tuck - f3 3\ntuck + f3 3\ntuck - f3 3\n", -9),
     "long_float": lambda: extra(flat_swatch(), "tuck - f30 3\ndrop f30\n", -9),
     "knit_on_empty": lambda: extra(flat_swatch(), "knit - f9 3\ndrop f9\n", -9),
 }
@@ -368,8 +409,9 @@ def test_agrees_on_valid_programs(agreement, name):
     assert r.problems() == [] and simulate(p, **ORACLE_LIMITS) == [] and simulate(p) == []
 
 
-@pytest.mark.parametrize("name", ["misaligned_xfer", "carrier_not_in", "hook_not_released",
-                                  "inhook_rightward"])
+@pytest.mark.parametrize(
+    "name", ["misaligned_xfer", "carrier_not_in", "hook_not_released", "inhook_rightward"]
+)
 def test_agrees_on_the_first_error(agreement, name):
     """Same kind of error, at the same op (the oracle's line mapped back to its op)."""
     p, r = agreement[name]
@@ -380,8 +422,10 @@ def test_agrees_on_the_first_error(agreement, name):
     assert first.span is not None  # ... and so at a DSL line
 
 
-@pytest.mark.parametrize("name", ["loops_left", "carriers_left", "both_left",
-                                  "too_many_loops", "long_float", "knit_on_empty"])
+@pytest.mark.parametrize(
+    "name",
+    ["loops_left", "carriers_left", "both_left", "too_many_loops", "long_float", "knit_on_empty"],
+)
 def test_agrees_on_end_state_and_hazards(agreement, name):
     p, r = agreement[name]
     assert r.ok and not r.errors

@@ -25,7 +25,8 @@ def _has_layer_fmt() -> bool:
 needs_layer_fmt = pytest.mark.skipif(
     not _has_layer_fmt(),
     reason="knitc.frontend.fmt.format_layer_stmt does not exist yet; "
-           "knitc.frontend.skeleton.to_json imports it, so the skeleton JSON cannot be built")
+    "knitc.frontend.skeleton.to_json imports it, so the skeleton JSON cannot be built",
+)
 
 
 def compile_(text: str, defines=(), werror=False):
@@ -48,9 +49,11 @@ def sizes(skel: sk.Skeleton) -> dict[str, tuple[int | None, int | None]]:
 
 # ---- sizes of primitives -------------------------------------------------------------------
 
+
 def test_flat_sheet_and_tube_sizes():
-    s = sizes(ok("sheet f { width: 7 }\ntube t { width: 7 }\n"
-                 "sheet c { type: cylinder  width: 7 }\n"))
+    s = sizes(
+        ok("sheet f { width: 7 }\ntube t { width: 7 }\nsheet c { type: cylinder  width: 7 }\n")
+    )
     assert s["f.bottom"] == s["f.top"] == (7, 1)
     assert s["t.bottom"] == s["t.top"] == (14, 2)
     assert s["c.bottom"] == s["c.top"] == (14, 2)
@@ -75,9 +78,14 @@ def test_default_sheet_width():
 
 # ---- inference across joints and splits ------------------------------------------------------
 
+
 def test_size_across_a_joint():
-    s = sizes(ok("tube a { width: 6 }\njoint j { rows: 4 }\ntube b { width: 6 }\n"
-                 "a.top -> j.bottom\nj.top -> b.bottom\n"))
+    s = sizes(
+        ok(
+            "tube a { width: 6 }\njoint j { rows: 4 }\ntube b { width: 6 }\n"
+            "a.top -> j.bottom\nj.top -> b.bottom\n"
+        )
+    )
     assert s["j.bottom"] == s["j.top"] == (12, 2)
 
 
@@ -88,23 +96,33 @@ def test_joint_with_one_neighbour_copies_its_size():
 
 
 def test_chain_of_joints_in_any_declaration_order():
-    s = sizes(ok("joint j3 {}\njoint j2 {}\njoint j1 {}\ntube a { width: 4 }\n"
-                 "j2.top -> j3.bottom\nj1.top -> j2.bottom\na.top -> j1.bottom\n"))
+    s = sizes(
+        ok(
+            "joint j3 {}\njoint j2 {}\njoint j1 {}\ntube a { width: 4 }\n"
+            "j2.top -> j3.bottom\nj1.top -> j2.bottom\na.top -> j1.bottom\n"
+        )
+    )
     for j in ("j1", "j2", "j3"):
         assert s[f"{j}.bottom"] == s[f"{j}.top"] == (8, 2)
 
 
 def test_joint_between_unequal_neighbours_is_an_error():
-    r = compile_("tube a { width: 6 }\njoint j {}\ntube b { width: 7 }\n"
-                 "a.top -> j.bottom\nj.top -> b.bottom\n")
+    r = compile_(
+        "tube a { width: 6 }\njoint j {}\ntube b { width: 7 }\n"
+        "a.top -> j.bottom\nj.top -> b.bottom\n"
+    )
     assert "E509" in codes(r)
 
 
 def test_folded_split_base_is_sum_of_branches():
     # A merge, as in the glove: fingers into the palm.
-    s = sizes(ok("tube f1 { width: 3 }\ntube f2 { width: 4 }\ntube f3 { width: 2 }\n"
-                 "split m { degree: 3 }\n"
-                 "f1.top -> m.branches[0]\nf2.top -> m.branches[1]\nf3.top -> m.branches[2]\n"))
+    s = sizes(
+        ok(
+            "tube f1 { width: 3 }\ntube f2 { width: 4 }\ntube f3 { width: 2 }\n"
+            "split m { degree: 3 }\n"
+            "f1.top -> m.branches[0]\nf2.top -> m.branches[1]\nf3.top -> m.branches[2]\n"
+        )
+    )
     assert s["m.branches[0]"] == (6, 2)
     assert s["m.branches[1]"] == (8, 2)
     assert s["m.branches[2]"] == (4, 2)
@@ -112,28 +130,40 @@ def test_folded_split_base_is_sum_of_branches():
 
 
 def test_folded_split_base_size_flows_on():
-    s = sizes(ok("tube f1 { width: 3 }\ntube f2 { width: 4 }\nsplit m {}\njoint j {}\n"
-                 "tube palm { width: 7 }\n"
-                 "f1.top -> m.branches[0]\nf2.top -> m.branches[1]\n"
-                 "m.base -> j.bottom\nj.top -> palm.bottom\n"))
+    s = sizes(
+        ok(
+            "tube f1 { width: 3 }\ntube f2 { width: 4 }\nsplit m {}\njoint j {}\n"
+            "tube palm { width: 7 }\n"
+            "f1.top -> m.branches[0]\nf2.top -> m.branches[1]\n"
+            "m.base -> j.bottom\nj.top -> palm.bottom\n"
+        )
+    )
     assert s["m.base"] == s["j.bottom"] == s["j.top"] == (14, 2)
 
 
 def test_split_through_joints_on_both_sides():
     # Nothing next to the split fixes its size directly; it flows through joints.
-    s = sizes(ok("tube a { width: 2 }\ntube b { width: 3 }\njoint ja {}\njoint jb {}\n"
-                 "split m {}\njoint jm {}\n"
-                 "a.top -> ja.bottom\nja.top -> m.branches[0]\n"
-                 "b.top -> jb.bottom\njb.top -> m.branches[1]\n"
-                 "m.base -> jm.bottom\n"))
+    s = sizes(
+        ok(
+            "tube a { width: 2 }\ntube b { width: 3 }\njoint ja {}\njoint jb {}\n"
+            "split m {}\njoint jm {}\n"
+            "a.top -> ja.bottom\nja.top -> m.branches[0]\n"
+            "b.top -> jb.bottom\njb.top -> m.branches[1]\n"
+            "m.base -> jm.bottom\n"
+        )
+    )
     assert s["m.base"] == (10, 2)
     assert s["jm.top"] == (10, 2)
 
 
 def test_unfolded_split_sides():
-    s = sizes(ok("split s { degree: 2  folded: false }\nsheet a { width: 4 }\n"
-                 "sheet b { width: 6 }\ntube c { width: 5 }\n"
-                 "s.branches[0] -> a.bottom\ns.branches[1] -> b.bottom\ns.base -> c.top\n"))
+    s = sizes(
+        ok(
+            "split s { degree: 2  folded: false }\nsheet a { width: 4 }\n"
+            "sheet b { width: 6 }\ntube c { width: 5 }\n"
+            "s.branches[0] -> a.bottom\ns.branches[1] -> b.bottom\ns.base -> c.top\n"
+        )
+    )
     assert s["s.branches[0]"] == (4, 1)
     assert s["s.branches[1]"] == (6, 1)
     assert s["s.base"] == (10, 2)
@@ -149,23 +179,29 @@ def test_glove_like_split_sizes():
 
 
 def test_split_branches_exceed_base():
-    r = compile_("tube big { width: 4 }\nsplit s {}\ntube x { width: 3 }\ntube y { width: 3 }\n"
-                 "big.top -> s.base\ns.branches[0] -> x.bottom\ns.branches[1] -> y.bottom\n")
+    r = compile_(
+        "tube big { width: 4 }\nsplit s {}\ntube x { width: 3 }\ntube y { width: 3 }\n"
+        "big.top -> s.base\ns.branches[0] -> x.bottom\ns.branches[1] -> y.bottom\n"
+    )
     assert "E504" in codes(r)
 
 
-@pytest.mark.parametrize("text", [
-    "split s {}\n",
-    "joint j {}\n",
-    "split s {}\ntube a { width: 3 }\ns.branches[0] -> a.bottom\n",
-])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "split s {}\n",
+        "joint j {}\n",
+        "split s {}\ntube a { width: 3 }\ns.branches[0] -> a.bottom\n",
+    ],
+)
 def test_size_that_cannot_be_inferred(text):
     assert "E505" in codes(compile_(text))
 
 
 def test_auto_sheet_takes_sides_from_neighbours():
-    s = sizes(ok("tube a { width: 3 }\nsheet b { type: auto  width: [0: 3, 1: 5] }\n"
-                 "a.top -> b.bottom\n"))
+    s = sizes(
+        ok("tube a { width: 3 }\nsheet b { type: auto  width: [0: 3, 1: 5] }\na.top -> b.bottom\n")
+    )
     assert s["b.bottom"] == (6, 2)
     assert s["b.top"] == (10, 2)
     s = sizes(ok("sheet a { width: 3 }\nsheet b { type: auto  width: 3 }\na.top -> b.bottom\n"))
@@ -173,6 +209,7 @@ def test_auto_sheet_takes_sides_from_neighbours():
 
 
 # ---- warnings ----------------------------------------------------------------------------------
+
 
 def test_w501_tube_closed_two_to_one():
     r = compile_("tube a { width: 4 }\nsheet b { width: 4 }\na.top -> b.bottom\n")
@@ -198,8 +235,9 @@ def test_w502_when_flat_is_twice_the_tube():
 def test_sizes_compare_across_gauges():
     r = compile_("tube a { width: 4 }\ntube b { width: 5  gauge: half }\na.top -> b.bottom\n")
     assert codes(r) == ["W502"]
-    assert not codes(compile_("tube a { width: 4 }\ntube b { width: 4  gauge: half }\n"
-                              "a.top -> b.bottom\n"))
+    assert not codes(
+        compile_("tube a { width: 4 }\ntube b { width: 4  gauge: half }\na.top -> b.bottom\n")
+    )
 
 
 def test_no_size_warning_for_a_node_with_errors():
@@ -222,9 +260,11 @@ def test_werror_promotes_warnings():
 
 
 def test_matching_sizes_are_silent():
-    r = compile_("sheet a { width: 8 }\ntube b { width: 4  length: 3 }\n"
-                 "tube c { width: [0: 4, 1: 9] }\nsheet d { type: cylinder  width: 9 }\n"
-                 "b.top -> c.bottom\nc.top -> d.bottom\n")
+    r = compile_(
+        "sheet a { width: 8 }\ntube b { width: 4  length: 3 }\n"
+        "tube c { width: [0: 4, 1: 9] }\nsheet d { type: cylinder  width: 9 }\n"
+        "b.top -> c.bottom\nc.top -> d.bottom\n"
+    )
     assert codes(r) == []
 
 
@@ -249,8 +289,17 @@ start cuff.bottom
 pattern cuff { apply rib(1, 1) }
 """
 
-JSON_KEYS = {"machine", "params", "nodes", "interfaces", "connections", "starts", "components",
-             "layers", "definitions"}
+JSON_KEYS = {
+    "machine",
+    "params",
+    "nodes",
+    "interfaces",
+    "connections",
+    "starts",
+    "components",
+    "layers",
+    "definitions",
+}
 
 
 @needs_layer_fmt
@@ -259,8 +308,16 @@ def test_skeleton_json_keys_and_values():
     assert r.ok, r.diagnostics.render()
     data = json.loads(emit_json(r, "skeleton"))
     assert set(data) == JSON_KEYS
-    assert set(data["machine"]) == {"model", "needles", "gauge", "racking", "carriers",
-                                    "increase", "cast_on", "cast_off"}
+    assert set(data["machine"]) == {
+        "model",
+        "needles",
+        "gauge",
+        "racking",
+        "carriers",
+        "increase",
+        "cast_on",
+        "cast_off",
+    }
     assert data["machine"]["gauge"] == "half"
     assert data["machine"]["carriers"] == [2, 3]
     assert data["params"] == {"w": 6, "len": 20}
@@ -269,7 +326,7 @@ def test_skeleton_json_keys_and_values():
         assert set(n) == {"name", "kind", "props", "interfaces", "span"}
     cuff = data["nodes"][0]
     assert cuff["kind"] == "tube"
-    assert cuff["props"]["width"] == 6          # a constant width is a number
+    assert cuff["props"]["width"] == 6  # a constant width is a number
     assert cuff["props"]["type"] == "cylinder"
     assert cuff["props"]["gauge"] == "half"
     assert data["nodes"][4]["props"]["width"] == [[0, 4], [1, 3]]
@@ -277,19 +334,39 @@ def test_skeleton_json_keys_and_values():
     assert cuff["span"][0] == "t.knit" and cuff["span"][1] == 5
     itfs = {i["id"]: i for i in data["interfaces"]}
     for i in itfs.values():
-        assert set(i) == {"id", "node", "path", "state", "closing", "cast_on", "cast_off",
-                          "size", "sides"}
+        assert set(i) == {
+            "id",
+            "node",
+            "path",
+            "state",
+            "closing",
+            "cast_on",
+            "cast_off",
+            "size",
+            "sides",
+        }
     assert itfs["cuff.bottom"]["state"] == "closed"
     assert itfs["cuff.bottom"]["closing"] == "zigzag"
     assert itfs["cuff.bottom"]["cast_on"] == "tuck"
-    assert itfs["s.base"] == {"id": "s.base", "node": "s", "path": "base", "state": "connected",
-                              "closing": None, "cast_on": "auto", "cast_off": "auto",
-                              "size": 12, "sides": 2}
+    assert itfs["s.base"] == {
+        "id": "s.base",
+        "node": "s",
+        "path": "base",
+        "state": "connected",
+        "closing": None,
+        "cast_on": "auto",
+        "cast_off": "auto",
+        "size": 12,
+        "sides": 2,
+    }
     assert itfs["s.branches[1]"]["path"] == "branches/1"
     assert itfs["s.branches[1]"]["size"] == 8
     assert [(c["a"], c["b"]) for c in data["connections"]] == [
-        ("cuff.top", "heel.bottom"), ("heel.top", "s.base"), ("s.branches[0]", "l.bottom"),
-        ("s.branches[1]", "r.bottom")]
+        ("cuff.top", "heel.bottom"),
+        ("heel.top", "s.base"),
+        ("s.branches[0]", "l.bottom"),
+        ("s.branches[1]", "r.bottom"),
+    ]
     assert data["starts"] == [{"interface": "cuff.bottom", "inferred": False}]
     assert data["components"] == [["cuff", "heel", "s", "l", "r"]]
     assert len(data["layers"]) == 1 and data["layers"][0]["target"] == "cuff"
@@ -321,8 +398,11 @@ def test_examples_dump_deterministically(name):
 
 @needs_layer_fmt
 def test_skeleton_json_inferred_start():
-    data = json.loads(emit_json(compile_("tube b { width: 2 }\ntube a { width: 2 }\n"
-                                         "a.top -> b.bottom\n"), "skeleton"))
+    data = json.loads(
+        emit_json(
+            compile_("tube b { width: 2 }\ntube a { width: 2 }\na.top -> b.bottom\n"), "skeleton"
+        )
+    )
     assert data["starts"] == [{"interface": "b.top", "inferred": True}]
     assert data["components"] == [["b", "a"]]
 

@@ -25,8 +25,9 @@ from knitc.scheduling.tracing import trace_rules
 from knitc.shaping.stitch_graph import COURSE_KINDS
 
 ROOT = Path(__file__).resolve().parent.parent
-EXAMPLES = sorted((ROOT / "examples").glob("*.knit")) + \
-    sorted((ROOT / "examples" / "knitskel").glob("*.knit"))
+EXAMPLES = sorted((ROOT / "examples").glob("*.knit")) + sorted(
+    (ROOT / "examples" / "knitskel").glob("*.knit")
+)
 IDS = [str(p.relative_to(ROOT / "examples")) for p in EXAMPLES]
 
 
@@ -48,6 +49,7 @@ def cycles(s: sl.Slices) -> list[str]:
 
 
 # ---- hand-worked designs ---------------------------------------------------------------------
+
 
 def test_flat_sheet_one_slice_per_course():
     g, t, s = sliced("sheet s { length: 3  width: 4 }")
@@ -127,13 +129,22 @@ def test_a_collapse_closing_is_not_cut_by_the_shaping_limit():
 def test_a_gauge_change_is_not_cut_by_the_shaping_limit():
     # 10 half-gauge stitches spread 1:2 onto 20 full-gauge ones: ten increases, but no loop
     # stretches, so the course is one slice (per direction), not five
-    g, t, s = sliced("sheet a { length: 2  width: 10  gauge: half }\n"
-                     "sheet b { length: 2  width: 20 }\na.top -> b.bottom")
+    g, t, s = sliced(
+        "sheet a { length: 2  width: 10  gauge: half }\n"
+        "sheet b { length: 2  width: 20 }\na.top -> b.bottom"
+    )
     spread = [c for c in range(g.n_courses) if g.course_gauge[c] == 1][0]
     ids = set(g.course_ids(spread).tolist())
-    holding = [k for k in range(s.n_slices)
-               if ids & set(s.stitch[s.start[k]:s.start[k] + s.length[k]]
-                            [s.state[s.start[k]:s.start[k] + s.length[k]] == sl.ACTIVE].tolist())]
+    holding = [
+        k
+        for k in range(s.n_slices)
+        if ids
+        & set(
+            s.stitch[s.start[k] : s.start[k] + s.length[k]][
+                s.state[s.start[k] : s.start[k] + s.length[k]] == sl.ACTIVE
+            ].tolist()
+        )
+    ]
     assert len(holding) == 1 and s.shaping[holding[0]] == 0
     assert ((g.wale_next[list(ids)] >= 0).sum(1) <= 1).all()  # the spread is in the parents
 
@@ -147,8 +158,10 @@ def test_increase_children_are_expected_in_order():
 
 
 def test_short_row_joint_slices_hold_the_whole_ring():
-    g, t, s = sliced("tube a { length: 2  width: 6 }\njoint j { rows: 3  width: 4 }\n"
-                     "tube b { length: 2  width: 6 }\na.top -> j.bottom\nj.top -> b.bottom")
+    g, t, s = sliced(
+        "tube a { length: 2  width: 6 }\njoint j { rows: 3  width: 4 }\n"
+        "tube b { length: 2  width: 6 }\na.top -> j.bottom\nj.top -> b.bottom"
+    )
     j = g.node_names.index("j")
     ks = np.flatnonzero(s.node == j)
     first = int(ks[0])
@@ -165,9 +178,11 @@ def test_short_row_joint_slices_hold_the_whole_ring():
         assert s.length[k] == 12
     # a short row that continues in the same direction as a wale child is cut (37 is 36's
     # next wale), then the continuity course turns round the back
-    assert cycles(s)[6:9] == ["45e 33a 34a 35a 36a 38e 39e 40e 41e 42e 43e 44e",
-                              "45e 46e 47e 48e 37a 38a 39e 40e 41e 42e 43e 44e",
-                              "45e 46e 47e 48e 49e 50e 39a 40a 41a 42a 43a 44a"]
+    assert cycles(s)[6:9] == [
+        "45e 33a 34a 35a 36a 38e 39e 40e 41e 42e 43e 44e",
+        "45e 46e 47e 48e 37a 38a 39e 40e 41e 42e 43e 44e",
+        "45e 46e 47e 48e 49e 50e 39a 40a 41a 42a 43a 44a",
+    ]
 
 
 # the same small split and merge as the stitch-graph tests
@@ -182,8 +197,12 @@ def test_split_branches_open_fresh_slices():
     ks = np.flatnonzero(s.node == fork)
     assert s.fresh[ks].tolist() == [True, False, True, False]
     assert s.yarn[ks].tolist() == [0, 0, 1, 1]  # the second branch has its own yarn
-    assert [cycle(s, int(k)) for k in ks] == ["16a 17a 18e 19e", "24e 25e 18a 19a",
-                                              "20a 21a 22e 23e", "28e 29e 22a 23a"]
+    assert [cycle(s, int(k)) for k in ks] == [
+        "16a 17a 18e 19e",
+        "24e 25e 18a 19a",
+        "20a 21a 22e 23e",
+        "28e 29e 22a 23a",
+    ]
 
 
 def test_merge_opens_on_the_first_branch_then_on_the_base():
@@ -214,8 +233,12 @@ def test_machine_slice_shaping_cuts_more_slices():
     assert one.n_slices > default.n_slices
     assert (one.limit == 1).all() and (default.limit == 2).all()
     assert (one.shaping <= 1).all() and int(one.shaping.sum()) == int(default.shaping.sum())
-    assert cycles(one)[:4] == ["0a 1e 2e 3e", "11e 10e 1a 2e 3e", "11e 10e 9e 8e 2a 3e",
-                               "11e 10e 9e 8e 7e 6e 3a"]
+    assert cycles(one)[:4] == [
+        "0a 1e 2e 3e",
+        "11e 10e 1a 2e 3e",
+        "11e 10e 9e 8e 2a 3e",
+        "11e 10e 9e 8e 7e 6e 3a",
+    ]
     _, _, many = sliced("machine { slice_shaping: 1000 }\n" + WIDEN)
     assert many.n_slices < default.n_slices and (many.limit == 1000).all()
 
@@ -223,8 +246,9 @@ def test_machine_slice_shaping_cuts_more_slices():
 def test_one_stitch_may_exceed_the_limit():
     # a stitch that is both a merge and an increase shapes 2: with limit 1 it still gets
     # a slice of its own, which the verifier accepts for a one-visit slice only
-    g, t, s = sliced("sheet s { length: 3  width: [0: 8, 0.5: 4, 1: 8] }\n"
-                     "machine { slice_shaping: 1 }")
+    g, t, s = sliced(
+        "sheet s { length: 3  width: [0: 8, 0.5: 4, 1: 8] }\nmachine { slice_shaping: 1 }"
+    )
     shp = sl.stitch_shaping(g)
     assert (shp == 2).any()
     big = s.shaping > s.limit
@@ -233,6 +257,7 @@ def test_one_stitch_may_exceed_the_limit():
 
 
 # ---- every example ---------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("path", EXAMPLES, ids=IDS)
 def test_examples_slice_validly(path):
@@ -253,6 +278,7 @@ def test_examples_slice_validly(path):
 
 # ---- --emit slices ---------------------------------------------------------------------------
 
+
 def test_emit_slices_json(tmp_path, capsys):
     src = tmp_path / "t.knit"
     src.write_text("tube s { length: 3  width: 3 }\n", encoding="utf-8")
@@ -262,8 +288,15 @@ def test_emit_slices_json(tmp_path, capsys):
     assert capsys.readouterr().out == out  # deterministic
     data = json.loads(out)
     assert list(data) == ["stats", "slices"]
-    assert data["stats"] == {"slices": 6, "fresh": 1, "entries": 36, "expected": 15,
-                             "active": 18, "suspended": 3, "shaping": 0}
+    assert data["stats"] == {
+        "slices": 6,
+        "fresh": 1,
+        "entries": 36,
+        "expected": 15,
+        "active": 18,
+        "suspended": 3,
+        "shaping": 0,
+    }
     first = data["slices"][0]
     assert list(first)[:2] == ["id", "node"]
     assert first["cycle"] == [[0, "a"], [1, "a"], [2, "a"], [3, "e"], [4, "e"], [5, "e"]]
@@ -274,6 +307,7 @@ def test_emit_slices_json(tmp_path, capsys):
 
 
 # ---- the verifier rejects broken slicings ---------------------------------------------------
+
 
 @pytest.fixture(scope="module")
 def shaped():
@@ -432,5 +466,5 @@ def test_verifier_rejects_a_merge_of_unsuspended_parents(shaped):
     _expect(g, t, sl.Slices(**a), "finished")
     # a merge placed where its parents were not: the cycle is not the derived one
     a = _copy(s)
-    a["stitch"][int(s.start[k]):int(s.start[k]) + 2] = [23, 22]
+    a["stitch"][int(s.start[k]) : int(s.start[k]) + 2] = [23, 22]
     _expect(g, t, sl.Slices(**a), "derived")

@@ -24,11 +24,20 @@ SHAPES = {
 }
 MODULES = ("std.stitches", "std.motifs")
 NO_PURL = {
-    "std.stitches": {"tuck_stitch": "tuck_stitch()", "eyelets": "eyelets()",
-                     "cable": "cable(2, 6, 0)"},
-    "std.motifs": {"mesh": "mesh()", "short_holes": "short_holes()", "pointelle": "pointelle()",
-                   "leaf": "leaf()", "zigzag_holes": "zigzag_holes()",
-                   "chevron_lace": "chevron_lace()", "lacy_noise": "lacy_noise(purl = 0)"},
+    "std.stitches": {
+        "tuck_stitch": "tuck_stitch()",
+        "eyelets": "eyelets()",
+        "cable": "cable(2, 6, 0)",
+    },
+    "std.motifs": {
+        "mesh": "mesh()",
+        "short_holes": "short_holes()",
+        "pointelle": "pointelle()",
+        "leaf": "leaf()",
+        "zigzag_holes": "zigzag_holes()",
+        "chevron_lace": "chevron_lace()",
+        "lacy_noise": "lacy_noise(purl = 0)",
+    },
 }
 """Per module, the patterns (with arguments) that write no purl, so they work on full-gauge
 tubes too."""
@@ -43,8 +52,12 @@ def stdlib_patterns(module: str) -> tuple[str, ...]:
     return tuple(sorted(r.skeleton.patterns))
 
 
-CASES = [(module, name, shape) for module in MODULES for name in stdlib_patterns(module)
-         for shape in ("sheet", "half-gauge tube")]
+CASES = [
+    (module, name, shape)
+    for module in MODULES
+    for name in stdlib_patterns(module)
+    for shape in ("sheet", "half-gauge tube")
+]
 CASES += [(module, name, "full-gauge tube") for module in MODULES for name in NO_PURL[module]]
 
 
@@ -53,8 +66,9 @@ def compile_case(module: str, name: str, shape: str):
     """The pattern applied on its own (imported alone: it must not need another definition
     of its module) to the whole of an unshaped piece, compiled to a machine program."""
     call = NO_PURL[module][name] if shape == "full-gauge tube" else f"{name}()"
-    src = (f"import {module} ({name})\n" + SHAPES[shape].format() + "\n"
-           f"pattern s {{ apply {call} }}\n")
+    src = (
+        f"import {module} ({name})\n" + SHAPES[shape].format() + f"\npattern s {{ apply {call} }}\n"
+    )
     r = compile_source(src, "t.knit", until="machine")
     assert not r.diagnostics.has_errors, r.diagnostics.render()
     return r
@@ -66,19 +80,33 @@ def written(r) -> set[str]:
 
 def refused(r) -> list[str]:
     """W708/W709 messages other than those about a piece's last course."""
-    return [d.message for d in r.diagnostics
-            if d.code in ("W708", "W709") and "last course" not in d.message]
+    return [
+        d.message
+        for d in r.diagnostics
+        if d.code in ("W708", "W709") and "last course" not in d.message
+    ]
 
 
 def test_the_stdlib_has_the_common_patterns():
-    assert {"rib", "seed", "garter", "basket", "eyelets", "cable", "tuck_stitch"} \
-        <= set(stdlib_patterns("std.stitches"))
+    assert {"rib", "seed", "garter", "basket", "eyelets", "cable", "tuck_stitch"} <= set(
+        stdlib_patterns("std.stitches")
+    )
 
 
 def test_the_stdlib_has_the_original_systems_motifs():
-    assert {"crosses", "seed_margin", "holy_margin", "short_holes", "pointelle", "leaf",
-            "zigzag_holes", "chevron_lace", "purl_noise", "lacy_noise", "cat"} \
-        <= set(stdlib_patterns("std.motifs"))
+    assert {
+        "crosses",
+        "seed_margin",
+        "holy_margin",
+        "short_holes",
+        "pointelle",
+        "leaf",
+        "zigzag_holes",
+        "chevron_lace",
+        "purl_noise",
+        "lacy_noise",
+        "cat",
+    } <= set(stdlib_patterns("std.motifs"))
 
 
 @pytest.mark.parametrize("module, name, shape", CASES)
@@ -107,16 +135,19 @@ def test_patterns_without_purls_are_also_tried_on_full_gauge_tubes(module):
 def test_every_pattern_knits_its_design_on_the_independent_machine():
     # clean, and the fabric the pattern says: every purl a purl, every lace move's loop
     # carried where it was sent, every cable's runs crossed (tests/fabric.py)
-    assert_knits_as_designed([compile_case(*case) for case in CASES],
-                             names=[f"{m}.{n} on a {shape}" for m, n, shape in CASES])
+    assert_knits_as_designed(
+        [compile_case(*case) for case in CASES],
+        names=[f"{m}.{n} on a {shape}" for m, n, shape in CASES],
+    )
 
 
 # ---- std.motifs: what the motifs knit --------------------------------------------------------
 
 
 def graph_of(body: str, shape: str = "sheet s { length: 20  width: 16 }"):
-    r = compile_source(f"import std.motifs\n{shape}\npattern s {{ {body} }}\n", "t.knit",
-                       until="stitch-graph")
+    r = compile_source(
+        f"import std.motifs\n{shape}\npattern s {{ {body} }}\n", "t.knit", until="stitch-graph"
+    )
     assert not r.diagnostics.has_errors, r.diagnostics.render()
     return r
 
@@ -132,7 +163,7 @@ def chart(r) -> np.ndarray:
 def test_seed_margin_borders_the_callers_selection_and_leaves_its_inside():
     r = graph_of("set T\n apply seed_margin(2) where select(4:15, 3:12)")
     a = chart(r)
-    rows, cols = np.mgrid[0:a.shape[0], 0:a.shape[1]]
+    rows, cols = np.mgrid[0 : a.shape[0], 0 : a.shape[1]]
     inside = (rows >= 4) & (rows <= 15) & (cols >= 3) & (cols <= 12)
     ring = inside & ~((rows >= 6) & (rows <= 13) & (cols >= 5) & (cols <= 10))
     kept = ~ring & (rows < 19)  # (a tuck on the last course is refused, W708)
@@ -151,8 +182,10 @@ def test_seed_margin_on_a_tube_is_a_band_at_each_end():
 def test_lace_stays_inside_each_bed_and_off_the_first_and_last_course():
     """The tiled lace keeps its moves one stitch away from a flat piece's edges and from a
     tube's folds (the drawn leaf only moves towards its middle, see below)."""
-    for shape in ("sheet s { length: 20  width: 17 }",
-                  "tube s { length: 20  width: 9  gauge: half }"):
+    for shape in (
+        "sheet s { length: 20  width: 17 }",
+        "tube s { length: 20  width: 9  gauge: half }",
+    ):
         for name in set(NO_PURL["std.motifs"]) - {"leaf"}:
             r = graph_of(f"apply {name}()", shape)
             g = r.graph
@@ -197,15 +230,22 @@ def test_lacy_noise_rings_its_lace_with_knit_then_purl():
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(name=st.sampled_from(stdlib_patterns("std.motifs")),
-       tube=st.booleans(), width=st.integers(3, 26), length=st.integers(3, 30),
-       panel=st.booleans())
+@given(
+    name=st.sampled_from(stdlib_patterns("std.motifs")),
+    tube=st.booleans(),
+    width=st.integers(3, 26),
+    length=st.integers(3, 30),
+    panel=st.booleans(),
+)
 def test_motifs_are_never_refused_on_unshaped_pieces(name, tube, width, length, panel):
     """Whatever the size of the piece, and on the whole of it or on a panel, a motif's
     instructions are knitted as written except on the piece's last course; too small a
     piece only clips the drawn motifs (W710)."""
-    shape = (f"tube s {{ length: {length}  width: {width}  gauge: half }}" if tube
-             else f"sheet s {{ length: {length}  width: {width} }}")
+    shape = (
+        f"tube s {{ length: {length}  width: {width}  gauge: half }}"
+        if tube
+        else f"sheet s {{ length: {length}  width: {width} }}"
+    )
     where = "where select(0.2:0.8, 0.25:0.75)" if panel else ""
     r = graph_of(f"apply {name}() {where}", shape)
     assert not refused(r)

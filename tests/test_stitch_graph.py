@@ -44,6 +44,7 @@ FRONT, BACK = 0, 1
 
 # ---- helpers -----------------------------------------------------------------------------------
 
+
 def build(text: str) -> sg.StitchGraph:
     """Compile `text` to a stitch graph; it must succeed and verify."""
     r = compile_source(text, "t.knit", until="stitch-graph")
@@ -91,10 +92,12 @@ def half_src(g: sg.StitchGraph, small: int, large: int, bed: int) -> list[int]:
     """The shaper mapping between two consecutive courses read off the graph, for one bed:
     for each stitch of the larger course in needle order, the index (in needle order) of
     the smaller-course stitch it is linked to by a wale."""
+
     def half(c):
         ids = g.course_ids(c)
         ids = ids[g.side[ids] == bed]
         return ids[np.argsort(g.needle[ids], kind="stable")]
+
     hs, hl = half(small), half(large)
     index = {int(s): i for i, s in enumerate(hs)}
     out = []
@@ -124,6 +127,7 @@ def assert_cycle(g: sg.StitchGraph, c: int) -> None:
 
 # ---- flat sheets ------------------------------------------------------------------------------
 
+
 def test_flat_sheet_counts_courses_and_paths():
     # widths at t = 0, .25, .5, .75, 1: 3, 3.75, 4.5, 5.25, 6 -> rounded half up 3 4 5 5 6
     g = build("sheet s { type: flat  length: 5  width: [0: 3, 1: 6] }\n")
@@ -137,8 +141,13 @@ def test_flat_sheet_counts_courses_and_paths():
         # flat courses alternate direction: even courses left to right, odd right to left
         step = np.diff(g.needle[ids])
         assert np.all(step == (1 if c % 2 == 0 else -1))
-    assert [sg.COURSE_KINDS[k] for k in g.course_kind] == \
-        ["interface", "regular", "regular", "regular", "interface"]
+    assert [sg.COURSE_KINDS[k] for k in g.course_kind] == [
+        "interface",
+        "regular",
+        "regular",
+        "regular",
+        "interface",
+    ]
     assert g.course_names == {0: ("s.bottom",), 4: ("s.top",)}
     assert set(g.node) == {0} and g.node_names == ["s"]
 
@@ -158,8 +167,10 @@ def test_flat_sheet_constant_width_has_one_to_one_wales():
 
 # ---- tubes --------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("decl", ["tube t { length: 3  width: 3 }",
-                                  "sheet t { type: cylinder  length: 3  width: 3 }"])
+
+@pytest.mark.parametrize(
+    "decl", ["tube t { length: 3  width: 3 }", "sheet t { type: cylinder  length: 3  width: 3 }"]
+)
 def test_tube_courses_are_cycles_of_two_beds(decl):
     g = build(decl + "\n")
     assert lens(g, range(3)) == [6, 6, 6] and g.n_stitches == 18
@@ -174,6 +185,7 @@ def test_tube_courses_are_cycles_of_two_beds(decl):
 
 
 # ---- width profiles: increases and decreases -----------------------------------------------
+
 
 def test_tube_increases_and_decreases_per_bed():
     # 4 -> 6 -> 4 per bed: each bed gets 2 increases, then 2 decreases, separately
@@ -222,20 +234,27 @@ SHAPERS = {
 
 @pytest.mark.parametrize("shaper", list(SHAPERS))
 def test_shapers_on_a_sheet(shaper):
-    g = build("import std.shapers (zigzag, edges)\n"
-              f"sheet s {{ type: flat  length: 3  width: [0: 4, 0.5: 6, 1: 4]  shaper: {shaper} }}\n")
+    g = build(
+        "import std.shapers (zigzag, edges)\n"
+        f"sheet s {{ type: flat  length: 3  width: [0: 4, 0.5: 6, 1: 4]  shaper: {shaper} }}\n"
+    )
     assert lens(g, range(3)) == [4, 6, 4]
     assert half_src(g, 0, 1, FRONT) == SHAPERS[shaper]
     # the decrease reads it backwards (uniform's spacing with the second change's phase)
-    second = list(shaper_map("uniform", 4, 6, phase=GOLDEN_STEP)) if shaper == "uniform" \
+    second = (
+        list(shaper_map("uniform", 4, 6, phase=GOLDEN_STEP))
+        if shaper == "uniform"
         else SHAPERS[shaper]
+    )
     assert half_src(g, 2, 1, FRONT) == second
 
 
 @pytest.mark.parametrize("shaper", list(SHAPERS))
 def test_shapers_agree_with_the_mapping_module_on_a_tube(shaper):
-    text = ("import std.shapers (zigzag, edges)\n"
-            f"tube t {{ length: 2  width: [0: 7, 1: 12]  shaper: {shaper} }}\n")
+    text = (
+        "import std.shapers (zigzag, edges)\n"
+        f"tube t {{ length: 2  width: [0: 7, 1: 12]  shaper: {shaper} }}\n"
+    )
     r = compile_source(text, "t.knit", until="stitch-graph")
     assert r.ok, r.diagnostics.render()
     g = r.graph
@@ -260,13 +279,15 @@ def test_shaper_none_gives_grid_wales():
 
 
 def test_alignment_left_puts_courses_on_needle_zero():
-    g = build("sheet s { type: flat  length: 2  width: [0: 3, 1: 5]  alignment: left "
-              " shaper: none }\n")
+    g = build(
+        "sheet s { type: flat  length: 2  width: [0: 3, 1: 5]  alignment: left  shaper: none }\n"
+    )
     assert min(g.needle[g.course_ids(0)]) == 0 and min(g.needle[g.course_ids(1)]) == 0
     assert len(wale_edges(g)) == 3
 
 
 # ---- closed tube ends ----------------------------------------------------------------------
+
 
 def test_closed_top_collapses_the_last_course():
     g = build("tube t { length: 4  width: 3 }\nstart t.bottom\nt.top closed\n")
@@ -298,8 +319,11 @@ def test_closed_end_keeps_the_width_of_its_neighbour():
 
 
 def test_closed_flat_end_is_not_collapsed():
-    r = compile_source("sheet s { type: flat  length: 3  width: 4 }\ns.top closed\n", "t.knit",
-                       until="stitch-graph")
+    r = compile_source(
+        "sheet s { type: flat  length: 3  width: 4 }\ns.top closed\n",
+        "t.knit",
+        until="stitch-graph",
+    )
     assert r.ok and [d.code for d in r.diagnostics] == ["W503"]
     assert lens(r.graph, range(3)) == [4, 4, 4]
 
@@ -448,11 +472,14 @@ def test_merge_into_the_base():
     assert g.n_stitches == 4 * 4 + 2 + 8 + 8
 
 
-@pytest.mark.parametrize("folded,expect", [
-    ("true", {0: [(0, 0), (0, 1), (1, 0), (1, 1)], 1: [(0, 2), (0, 3), (1, 2), (1, 3)]}),
-    # unfolded: two flat strips on the base ring, the second one on the back bed
-    ("false", {0: [(0, 0), (0, 1), (0, 2), (0, 3)], 1: [(1, 0), (1, 1), (1, 2), (1, 3)]}),
-])
+@pytest.mark.parametrize(
+    "folded,expect",
+    [
+        ("true", {0: [(0, 0), (0, 1), (1, 0), (1, 1)], 1: [(0, 2), (0, 3), (1, 2), (1, 3)]}),
+        # unfolded: two flat strips on the base ring, the second one on the back bed
+        ("false", {0: [(0, 0), (0, 1), (0, 2), (0, 3)], 1: [(1, 0), (1, 1), (1, 2), (1, 3)]}),
+    ],
+)
 def test_split_layouts(folded, expect):
     kind = "tube" if folded == "true" else "sheet"
     extra = "" if folded == "true" else "type: flat "
@@ -473,9 +500,9 @@ fork.branches[1] -> b.bottom
 
 # ---- connections --------------------------------------------------------------------------------
 
+
 def test_equal_sizes_share_one_course():
-    g = build("tube a { length: 3  width: 4 }\ntube b { length: 2  width: 4 }\n"
-              "a.top -> b.bottom\n")
+    g = build("tube a { length: 3  width: 4 }\ntube b { length: 2  width: 4 }\na.top -> b.bottom\n")
     assert g.n_courses == 4 and g.n_stitches == 32
     shared = named(g, "b.bottom")
     assert g.course_names[shared] == ("a.top", "b.bottom")
@@ -485,8 +512,10 @@ def test_equal_sizes_share_one_course():
 def test_different_sizes_are_spread():
     # flat 4 -> flat 6 (W502): no shared course; a size ratio under 2 spreads with factor
     # 1, so the first 4 stitches continue 1:1 and the extra 2 start without wales
-    text = ("sheet a { type: flat  length: 1  width: 4 }\n"
-            "sheet b { type: flat  length: 1  width: 6 }\na.top -> b.bottom\n")
+    text = (
+        "sheet a { type: flat  length: 1  width: 4 }\n"
+        "sheet b { type: flat  length: 1  width: 6 }\na.top -> b.bottom\n"
+    )
     r = compile_source(text, "t.knit", until="stitch-graph")
     assert [d.code for d in r.diagnostics] == ["W502"]
     g = r.graph
@@ -500,10 +529,12 @@ def test_different_sizes_are_spread():
 def test_flat_branches_of_an_unfolded_split_continue_into_their_sheets(shaper):
     # a tube opened into two flat strips: the second lies on the back bed, and its strip
     # continues there, every stitch in a wale (it was cast on anew as a separate piece)
-    g = build("tube t { length: 2  width: 4 }\nsplit s { degree: 2  folded: false }\n"
-              f"sheet a {{ type: flat  length: 3  width: 4  shaper: {shaper} }}\n"
-              f"sheet b {{ type: flat  length: 3  width: 4  shaper: {shaper} }}\n"
-              "t.top -> s.base\ns.branches[0] -> a.bottom\ns.branches[1] -> b.bottom\n")
+    g = build(
+        "tube t { length: 2  width: 4 }\nsplit s { degree: 2  folded: false }\n"
+        f"sheet a {{ type: flat  length: 3  width: 4  shaper: {shaper} }}\n"
+        f"sheet b {{ type: flat  length: 3  width: 4  shaper: {shaper} }}\n"
+        "t.top -> s.base\ns.branches[0] -> a.bottom\ns.branches[1] -> b.bottom\n"
+    )
     for branch, sheet, bed in (("s.branches[0]", "a", 0), ("s.branches[1]", "b", 1)):
         c = named(g, branch)
         assert {int(g.side[x]) for x in g.course_ids(c)} == {bed}
@@ -519,9 +550,11 @@ def test_an_unfolded_split_lays_every_branch_flat():
     # a tube joined to a branch of an unfolded split does not make that branch a tube (it
     # used to be laid as a ring beyond the base, with no wale to it): the branch lies flat
     # along the base ring and the tube is spread from it
-    g = build("tube t { length: 2  width: 8 }\nsplit s { degree: 2  folded: false }\n"
-              "sheet a { type: flat  length: 2  width: 4 }\ntube b { length: 3  width: 6 }\n"
-              "t.top -> s.base\ns.branches[0] -> a.bottom\ns.branches[1] -> b.bottom\n")
+    g = build(
+        "tube t { length: 2  width: 8 }\nsplit s { degree: 2  folded: false }\n"
+        "sheet a { type: flat  length: 2  width: 4 }\ntube b { length: 3  width: 6 }\n"
+        "t.top -> s.base\ns.branches[0] -> a.bottom\ns.branches[1] -> b.bottom\n"
+    )
     for branch in ("s.branches[0]", "s.branches[1]"):
         c = named(g, branch)
         assert not g.course_circular[c]
@@ -536,8 +569,10 @@ def test_gauge_change_spreads_full_onto_half():
     # apart and each half-gauge stitch i takes full-gauge stitches 2i and 2i + 1, the loops
     # of its own bed (the original took 2i - 1 and 2i, so the pairs at the folds straddled
     # them and the rings had to be laid out rotated against each other)
-    g = build("tube a { length: 2  width: 6 }\ntube b { length: 2  width: 3  gauge: half }\n"
-              "a.top -> b.bottom\n")
+    g = build(
+        "tube a { length: 2  width: 6 }\ntube b { length: 2  width: 3  gauge: half }\n"
+        "a.top -> b.bottom\n"
+    )
     top, bottom = named(g, "a.top"), named(g, "b.bottom")
     assert top != bottom and lens(g, [top, bottom]) == [12, 6]
     assert int(g.course_gauge[top]) == 1 and int(g.course_gauge[bottom]) == 2
@@ -550,11 +585,15 @@ def test_gauge_change_spreads_full_onto_half():
 
 # ---- errors -------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("decl", [
-    "sheet a { type: flat  length: 2  width: [0: 2, 1: 5] }",
-    "tube a { length: 2  width: [0: 5, 1: 2] }",
-    "tube a { length: 3  width: [0: 3, 0.5: 7, 1: 3] }",
-])
+
+@pytest.mark.parametrize(
+    "decl",
+    [
+        "sheet a { type: flat  length: 2  width: [0: 2, 1: 5] }",
+        "tube a { length: 2  width: [0: 5, 1: 2] }",
+        "tube a { length: 3  width: [0: 3, 0.5: 7, 1: 3] }",
+    ],
+)
 def test_more_than_doubling_is_E530(decl):
     r = compile_source(decl + "\n", "t.knit", until="stitch-graph")
     assert [d.code for d in r.diagnostics] == ["E530"]
@@ -567,6 +606,7 @@ def test_exactly_doubling_is_fine():
 
 
 # ---- stats and the JSON dump -------------------------------------------------------------------
+
 
 def test_stats():
     g = build(SPLIT)
@@ -600,8 +640,14 @@ def test_json_dump_is_identical_across_processes(tmp_path):
     outs = []
     for seed in ("1", "2"):
         env = dict(os.environ, PYTHONHASHSEED=seed)
-        p = subprocess.run([sys.executable, "-m", "knitc", "--emit", "stitch-graph", design],
-                           capture_output=True, text=True, env=env, cwd=tmp_path, check=True)
+        p = subprocess.run(
+            [sys.executable, "-m", "knitc", "--emit", "stitch-graph", design],
+            capture_output=True,
+            text=True,
+            env=env,
+            cwd=tmp_path,
+            check=True,
+        )
         outs.append(p.stdout)
     assert outs[0] == outs[1] and outs[0].startswith('{\n "stats": {\n  "stitches": 400,')
 
@@ -631,11 +677,17 @@ def test_golden_flat_3x2_content():
     obj = json.loads((GOLDEN / "flat_3x2.json").read_text(encoding="utf-8"))
     assert obj["stats"] == {"stitches": 6, "courses": 2, "nodes": 1, "instructions": {"K": 6}}
     assert [(s["needle"], s["prev"], s["next"], s["wale_prev"]) for s in obj["stitches"]] == [
-        (0, -1, 1, []), (1, 0, 2, []), (2, 1, -1, []),
-        (2, -1, 4, [2]), (1, 3, 5, [1]), (0, 4, -1, [0])]
+        (0, -1, 1, []),
+        (1, 0, 2, []),
+        (2, 1, -1, []),
+        (2, -1, 4, [2]),
+        (1, 3, 5, [1]),
+        (0, 4, -1, [0]),
+    ]
 
 
 # ---- the verifier can fail ----------------------------------------------------------------------
+
 
 def _corrupt(g: sg.StitchGraph) -> sg.StitchGraph:
     return copy.deepcopy(g)
@@ -702,10 +754,24 @@ def test_verifier_catches_two_to_two_links():
 
 # ---- fidelity against the original knitskel -----------------------------------------------------
 
-DESIGNS = ("glove", "sock", "sock_flat", "sweatpants", "wristband", "wristband2",
-           "split_unfolded_4x")
-KNITC_TODAY = {"sweatpants": 8304, "split_unfolded_4x": 400, "wristband": 520,
-               "wristband2": 2550, "glove": 5100, "sock": 1490, "sock_flat": 794}
+DESIGNS = (
+    "glove",
+    "sock",
+    "sock_flat",
+    "sweatpants",
+    "wristband",
+    "wristband2",
+    "split_unfolded_4x",
+)
+KNITC_TODAY = {
+    "sweatpants": 8304,
+    "split_unfolded_4x": 400,
+    "wristband": 520,
+    "wristband2": 2550,
+    "glove": 5100,
+    "sock": 1490,
+    "sock_flat": 794,
+}
 """Stitch counts knitc gives today, pinned while `examples/knitskel/README.md` has no
 "knitc" column. Four equal the original. The others differ:
 - glove 5100 vs 5140: the two merge continuity courses are 30 and 40 stitches, the
@@ -774,8 +840,9 @@ def test_knitskel_course_widths_per_node(name):
         if want is None:
             continue
         mine = {int(c) for c in np.nonzero(g.course_node == n)[0]}
-        mine |= {c for c, names in g.course_names.items()
-                 if any(x.split(".")[0] == node for x in names)}
+        mine |= {
+            c for c, names in g.course_names.items() if any(x.split(".")[0] == node for x in names)
+        }
         got = [int(g.course_len[c]) for c in sorted(mine)]
         if Counter(got) != Counter(want):
             diffs.append(node)
@@ -784,11 +851,16 @@ def test_knitskel_course_widths_per_node(name):
 
 def test_glove_continuity_differs_from_the_original():
     g = _graph("glove")
-    cont = [(g.node_names[int(g.course_node[c])], int(g.course_len[c]))
-            for c in range(g.n_courses) if sg.COURSE_KINDS[int(g.course_kind[c])] == "continuity"]
+    cont = [
+        (g.node_names[int(g.course_node[c])], int(g.course_len[c]))
+        for c in range(g.n_courses)
+        if sg.COURSE_KINDS[int(g.course_kind[c])] == "continuity"
+    ]
     assert cont == [("split_15", 30), ("split_24", 40)]
-    assert [(c["node"], c["stitches"]) for c in _load("glove")["continuity"]] == \
-        [("split_15", 50), ("split_24", 60)]
+    assert [(c["node"], c["stitches"]) for c in _load("glove")["continuity"]] == [
+        ("split_15", 50),
+        ("split_24", 60),
+    ]
     assert 5140 - 5100 == (50 - 30) + (60 - 40)
 
 
@@ -874,8 +946,12 @@ def test_known_shape_crashes(name):
 
 
 def test_closed_end_of_a_shared_one_course_tube():
-    r = compile_source("tube a { length: 2  width: 3 }\ntube b { length: 1  width: 3 }\n"
-                       "a.top -> b.bottom\nb.top closed\n", "t.knit", until="stitch-graph")
+    r = compile_source(
+        "tube a { length: 2  width: 3 }\ntube b { length: 1  width: 3 }\n"
+        "a.top -> b.bottom\nb.top closed\n",
+        "t.knit",
+        until="stitch-graph",
+    )
     if r.diagnostics.items:
         return  # a diagnostic explaining it is a fix too
     g = r.graph
@@ -924,9 +1000,13 @@ def test_mixed_split_sides_do_not_crash(name):
 
 @pytest.mark.parametrize("closing", ["zigzag", "zigzagreturn"])
 def test_zigzag_course_into_joint(closing):
-    r = compile_source("tube a { length: 1  width: 2 }\njoint j { rows: 1 }\na.top -> j.bottom\n"
-                       f"tube b {{ length: 2  width: 2 }}\nj.top -> b.bottom\n"
-                       f"a.bottom closed({closing})\n", "t.knit", until="stitch-graph")
+    r = compile_source(
+        "tube a { length: 1  width: 2 }\njoint j { rows: 1 }\na.top -> j.bottom\n"
+        f"tube b {{ length: 2  width: 2 }}\nj.top -> b.bottom\n"
+        f"a.bottom closed({closing})\n",
+        "t.knit",
+        until="stitch-graph",
+    )
     if r.graph is not None:
         assert sg.verify(r.graph) == []
     else:

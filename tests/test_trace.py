@@ -60,6 +60,7 @@ def fixture(name: str) -> dict:
 
 # ---- independent checks (the verifier's rules, written again) ---------------------------------
 
+
 def yarn_visits(t: tr.Trace, y: int) -> np.ndarray:
     return np.nonzero(t.yarn == y)[0]
 
@@ -139,14 +140,16 @@ def direction_errors(g: sg.StitchGraph, t: tr.Trace) -> list[int]:
     for y in range(t.n_yarns):
         idx = yarn_visits(t, y)
         a, b = t.stitch[idx[:-1]], t.stitch[idx[1:]]
-        same = (g.course[a] == g.course[b]) & (g.side[a] == g.side[b]) & \
-            (g.needle[a] != g.needle[b])
+        same = (
+            (g.course[a] == g.course[b]) & (g.side[a] == g.side[b]) & (g.needle[a] != g.needle[b])
+        )
         step = np.sign(g.needle[b].astype(np.int64) - g.needle[a].astype(np.int64))
         bad += [int(v) for v in idx[1:][same & (step != t.dir[idx[1:]])]]
     return bad
 
 
 # ---- every tracer on every example --------------------------------------------------------------
+
 
 @pytest.mark.parametrize("tracer", list(TRACERS))
 @pytest.mark.parametrize("path", EXAMPLES, ids=IDS)
@@ -192,8 +195,15 @@ def test_passes_must_be_one_or_two():
 
 # ---- the numbers of the knitskel ports ---------------------------------------------------------
 
-YARNS_TODAY = {"sweatpants": 2, "sock": 1, "sock_flat": 1, "wristband": 3,
-               "glove": 7, "split_unfolded_4x": 5, "wristband2": 3}
+YARNS_TODAY = {
+    "sweatpants": 2,
+    "sock": 1,
+    "sock_flat": 1,
+    "wristband": 3,
+    "glove": 7,
+    "split_unfolded_4x": 5,
+    "wristband2": 3,
+}
 """`trace_courses` yarn counts today. The original (fixtures): sweatpants 2, sock 1,
 sock_flat 1, glove 5, split_unfolded_4x 4, and with the ports' stand-in nodes wristband 3,
 wristband2 3. The differences:
@@ -214,10 +224,14 @@ def test_knitskel_yarns(name):
 
 def test_sweatpants_yarns_match_the_original():
     g, t = graph(knitskel("sweatpants")), traced(knitskel("sweatpants"), "courses")
-    assert [len(yarn_visits(t, y)) for y in range(t.n_yarns)] == \
-        [y["stitches"] for y in fixture("sweatpants")["yarns"]] == [5352, 2952]
-    legs = {y: {g.node_names[int(g.node[s])] for s in t.stitch[yarn_visits(t, y)]}
-            for y in range(2)}
+    assert (
+        [len(yarn_visits(t, y)) for y in range(t.n_yarns)]
+        == [y["stitches"] for y in fixture("sweatpants")["yarns"]]
+        == [5352, 2952]
+    )
+    legs = {
+        y: {g.node_names[int(g.node[s])] for s in t.stitch[yarn_visits(t, y)]} for y in range(2)
+    }
     assert legs == {0: {"waist", "split", "leg1"}, 1: {"split", "leg2"}}
 
 
@@ -245,8 +259,11 @@ def test_sock_tucks_are_on_every_short_row_turn():
     yarn turns."""
     g, t = graph(knitskel("sock")), traced(knitskel("sock"), "courses")
     heel = g.node_names.index("heel")
-    rows = [c for c in range(g.n_courses)
-            if g.course_node[c] == heel and sg.COURSE_KINDS[int(g.course_kind[c])] == "short_row"]
+    rows = [
+        c
+        for c in range(g.n_courses)
+        if g.course_node[c] == heel and sg.COURSE_KINDS[int(g.course_kind[c])] == "short_row"
+    ]
     starts = [int(g.course_start[c]) for c in rows]
     for s in starts[1:]:
         assert t.flags[s] & tr.TUCK_PREV
@@ -270,6 +287,7 @@ def test_sweatpants_has_two_yarns_with_every_tracer():
 
 # ---- the JSON dump --------------------------------------------------------------------------------
 
+
 def test_emit_trace_json(capsys):
     path = knitskel("sock")
     assert main(["--emit", "trace", path]) == 0
@@ -281,8 +299,13 @@ def test_emit_trace_json(capsys):
     assert obj["stats"]["visits"] == 1490 and obj["stats"]["yarns"] == 1
     assert obj["stats"]["tucks"] == 16
     assert len(obj["visits"]) == 1490 and len(obj["yarns"]) == 1
-    assert obj["yarns"][0] == {"yarn": 0, "visits": 1490, "first": 0, "last": 1489,
-                               "nodes": ["bottom", "heel", "main"]}
+    assert obj["yarns"][0] == {
+        "yarn": 0,
+        "visits": 1490,
+        "first": 0,
+        "last": 1489,
+        "nodes": ["bottom", "heel", "main"],
+    }
     assert obj["visits"][0]["flags"] == ["start"] and obj["visits"][-1]["flags"] == ["end"]
     assert sum("tuck" in v["flags"] for v in obj["visits"]) == 16
     # deterministic
@@ -292,9 +315,16 @@ def test_emit_trace_json(capsys):
 
 # ---- the verifier rejects corrupted traces -------------------------------------------------------
 
+
 def _copy(t: tr.Trace) -> tr.Trace:
-    return tr.Trace(t.stitch.copy(), t.yarn.copy(), t.dir.copy(), t.flags.copy(),
-                    passes=t.passes, method=t.method)
+    return tr.Trace(
+        t.stitch.copy(),
+        t.yarn.copy(),
+        t.dir.copy(),
+        t.flags.copy(),
+        passes=t.passes,
+        method=t.method,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -338,12 +368,12 @@ def test_verifier_catches_an_unflagged_jump(tube):
     # knit the first course 0, 2, 1, 3, ...: 0 -> 2 skips a stitch without a JUMP flag
     bad.stitch[1], bad.stitch[2] = 2, 1
     problems = tr.verify(g, bad)
-    assert any("yarn 0 jumps from stitch 0 to 2 without a justification" in p
-               for p in problems)
+    assert any("yarn 0 jumps from stitch 0 to 2 without a justification" in p for p in problems)
     # a JUMP flag justifies only a step to a neighbouring needle: 0 -> 2 skips one
     bad.flags[1] |= tr.JUMP
-    assert any("from stitch 0 to 2, which is not a neighbouring needle" in p
-               for p in tr.verify(g, bad))
+    assert any(
+        "from stitch 0 to 2, which is not a neighbouring needle" in p for p in tr.verify(g, bad)
+    )
 
 
 def test_verifier_catches_a_cleared_jump_flag(tube):
@@ -366,6 +396,7 @@ def test_verifier_catches_missing_yarn_starts(tube):
 
 
 # ---- regressions: bugs these tests found --------------------------------------------------------
+
 
 def test_trace_rules_direction_on_flat_courses():
     g = graph(str(ROOT / "examples" / "sheet.knit"))
@@ -393,8 +424,9 @@ def test_trace_rules_jumps_are_near():
 
 
 def test_trace_rules_yarn_of_hook_starts_and_ends_yarns():
-    g = compile_source("sheet s { type: flat  length: 4  width: 6 }\n", "t.knit",
-                       until="stitch-graph").graph
+    g = compile_source(
+        "sheet s { type: flat  length: 4  width: 6 }\n", "t.knit", until="stitch-graph"
+    ).graph
     t = trace_rules(g, passes=1, yarn_of=lambda s: 1 if g.needle[s] >= 3 else 0)
     assert t.n_yarns == 2
     assert tr.verify(g, t) == []
@@ -403,7 +435,10 @@ def test_trace_rules_yarn_of_hook_starts_and_ends_yarns():
 def test_closed_start_keeps_one_yarn():
     """Regression (fixed in c2df2e1): the collapsed first course used to end away from the
     tube's first stitch, so a second yarn started."""
-    g = compile_source("tube a { length: 3  width: 3 }\nstart a.bottom\na.bottom closed\n",
-                       "t.knit", until="stitch-graph").graph
+    g = compile_source(
+        "tube a { length: 3  width: 3 }\nstart a.bottom\na.bottom closed\n",
+        "t.knit",
+        until="stitch-graph",
+    ).graph
     t = trace_courses(g)
     assert t.n_yarns == 1 and tr.verify(g, t) == [] and check_trace(g, t) == []

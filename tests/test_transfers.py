@@ -30,6 +30,7 @@ CARRIER = 3
 
 # ---- harness ------------------------------------------------------------------------------------
 
+
 @dataclass
 class Problem:
     """Loops on the bed (needle -> stitch), where each must go, and the bed's set-up."""
@@ -53,8 +54,13 @@ def make_bed(pb: Problem, carrier_at: float | None = None) -> Bed:
     the independent machine accepts); the carrier is left at `carrier_at` if given."""
     n = max(pb.start.values()) + 1
     course = np.array([pb.course.get(s, 0) for s in range(n)])
-    g = SimpleNamespace(spans=[None], span=np.zeros(n, np.int32), course=course, node=course,
-                        course_circular=np.full(course.max() + 1, pb.circular))
+    g = SimpleNamespace(
+        spans=[None],
+        span=np.zeros(n, np.int32),
+        course=course,
+        node=course,
+        course_circular=np.full(course.max() + 1, pb.circular),
+    )
     bed = Bed(g, MachineProgram(Machine(needles=pb.needles)), pb.max_rack)  # type: ignore[arg-type]
     bed.prog.inhook((CARRIER,))
     order = sorted(pb.start.items(), key=lambda it: (-it[0][1], it[0][0]))
@@ -75,8 +81,13 @@ def finish(bed: Bed) -> None:
     bed.prog.outhook((CARRIER,))
 
 
-def replay(prog: MachineProgram, start: int, loops: dict[Pos, set[int]],
-           target: dict[int, Pos], max_rack: int) -> None:
+def replay(
+    prog: MachineProgram,
+    start: int,
+    loops: dict[Pos, set[int]],
+    target: dict[int, Pos],
+    max_rack: int,
+) -> None:
     """Follow every loop through ops[start:] and assert the planner's invariants."""
     loops = {p: set(s) for p, s in loops.items() if s}
     rack = 0
@@ -107,7 +118,8 @@ def replay(prog: MachineProgram, start: int, loops: dict[Pos, set[int]],
             there = loops.get(b, set())
             if there:
                 assert all(target[s] == b for s in moving | there), (
-                    f"{op} puts stitches {sorted(moving)} on {b} holding {sorted(there)}")
+                    f"{op} puts stitches {sorted(moving)} on {b} holding {sorted(there)}"
+                )
             for c, x in carriers.items():
                 if min(a[1], b[1]) < x < max(a[1], b[1]):
                     assert anchor.get(c) == a, f"{op} crosses carrier {c} at {x}"
@@ -168,6 +180,7 @@ def cycle_target(start: dict[Pos, int], slots: list[Pos], k: int) -> dict[int, P
 
 
 # ---- same-bed shifts ----------------------------------------------------------------------------
+
 
 def test_a_shift_within_the_racking_limit_is_one_round():
     pb = Problem(tube(list(range(10, 16)), []), {})
@@ -232,6 +245,7 @@ def test_a_free_range_keeps_the_loops_inside_it():
 
 
 # ---- bed changes --------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("dist", [6, 9, 14, 20])
 def test_cross_bed_moves_beyond_the_racking_limit(dist):
@@ -306,6 +320,7 @@ def test_rib_like_moves_go_straight_across():
 
 # ---- gauges -------------------------------------------------------------------------------------
 
+
 def test_half_gauge_parks_on_the_free_hooks():
     start = tube(list(range(10, 30, 2)), list(range(29, 9, -2)))
     pb = Problem(start, {})
@@ -336,6 +351,7 @@ def test_half_gauge_tube_rotation():
 
 
 # ---- carriers -----------------------------------------------------------------------------------
+
 
 def test_a_carrier_inside_the_shaping_range_is_parked_first():
     # an increase at the right edge: the loops move right across the carrier's position
@@ -377,6 +393,7 @@ def test_an_out_carrier_is_no_barrier():
 
 # ---- what cannot be done ------------------------------------------------------------------------
 
+
 def test_stacked_loops_cannot_be_split():
     pb = Problem(tube([10, 11], []), {})
     bed = make_bed(pb)
@@ -409,6 +426,7 @@ def test_plan_leaves_the_bed_alone():
 
 
 # ---- the independent machine --------------------------------------------------------------------
+
 
 def test_plans_run_clean_on_the_independent_machine():
     texts = []

@@ -30,21 +30,50 @@ from typing import TYPE_CHECKING, Any
 __version__ = "0.1.0"
 
 _PUBLIC = {
-    "compile_source": "knitc.driver", "compile_file": "knitc.driver", "resume": "knitc.driver",
-    "Result": "knitc.driver", "Stage": "knitc.driver", "STAGES": "knitc.driver",
-    "TARGETS": "knitc.driver", "InternalError": "knitc.driver",
-    "Diagnostics": "knitc.diagnostics", "Diagnostic": "knitc.diagnostics",
+    "compile_source": "knitc.driver",
+    "compile_file": "knitc.driver",
+    "resume": "knitc.driver",
+    "Result": "knitc.driver",
+    "Stage": "knitc.driver",
+    "STAGES": "knitc.driver",
+    "TARGETS": "knitc.driver",
+    "InternalError": "knitc.driver",
+    "Diagnostics": "knitc.diagnostics",
+    "Diagnostic": "knitc.diagnostics",
     "Span": "knitc.source",
-    "Module": "knitc.frontend.ast", "Skeleton": "knitc.frontend.skeleton",
-    "StitchGraph": "knitc.shaping.stitch_graph", "Trace": "knitc.scheduling.trace",
-    "Slices": "knitc.scheduling.slices", "Schedule": "knitc.scheduling.schedule",
-    "MachineProgram": "knitc.codegen.machine", "Op": "knitc.codegen.machine", "Needle": "knitc.codegen.machine",
+    "Module": "knitc.frontend.ast",
+    "Skeleton": "knitc.frontend.skeleton",
+    "StitchGraph": "knitc.shaping.stitch_graph",
+    "Trace": "knitc.scheduling.trace",
+    "Slices": "knitc.scheduling.slices",
+    "Schedule": "knitc.scheduling.schedule",
+    "MachineProgram": "knitc.codegen.machine",
+    "Op": "knitc.codegen.machine",
+    "Needle": "knitc.codegen.machine",
 }
 
 __all__ = [
-    "__version__", "compile_source", "compile_file", "resume", "Result", "Stage", "STAGES",
-    "TARGETS", "InternalError", "Diagnostics", "Diagnostic", "Span", "Module", "Skeleton",
-    "StitchGraph", "Trace", "Slices", "Schedule", "MachineProgram", "Op", "Needle",
+    "__version__",
+    "compile_source",
+    "compile_file",
+    "resume",
+    "Result",
+    "Stage",
+    "STAGES",
+    "TARGETS",
+    "InternalError",
+    "Diagnostics",
+    "Diagnostic",
+    "Span",
+    "Module",
+    "Skeleton",
+    "StitchGraph",
+    "Trace",
+    "Slices",
+    "Schedule",
+    "MachineProgram",
+    "Op",
+    "Needle",
 ]
 
 if TYPE_CHECKING:
@@ -74,6 +103,7 @@ def __getattr__(name: str) -> Any:
     if module is None:
         raise AttributeError(f"module 'knitc' has no attribute {name!r}")
     import importlib
+
     value = getattr(importlib.import_module(module), name)
     globals()[name] = value
     return value

@@ -48,82 +48,133 @@ examples:
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
-                   help="override a design parameter (`param NAME = ...`); repeatable")
-    p.add_argument("-W", dest="warn", action="append", default=[], choices=["error"],
-                   help="-W error: treat warnings as errors")
-    p.add_argument("-q", "--quiet", action="store_true",
-                   help="print errors only (no warnings, no summary)")
-    p.add_argument("--time-passes", action="store_true",
-                   help="print the seconds each stage took on standard error")
+    p.add_argument(
+        "-D",
+        dest="defines",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="override a design parameter (`param NAME = ...`); repeatable",
+    )
+    p.add_argument(
+        "-W",
+        dest="warn",
+        action="append",
+        default=[],
+        choices=["error"],
+        help="-W error: treat warnings as errors",
+    )
+    p.add_argument(
+        "-q", "--quiet", action="store_true", help="print errors only (no warnings, no summary)"
+    )
+    p.add_argument(
+        "--time-passes",
+        action="store_true",
+        help="print the seconds each stage took on standard error",
+    )
 
 
 def _main_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="knitc", formatter_class=argparse.RawDescriptionHelpFormatter,
+        prog="knitc",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Compile a knitc garment description (.knit) for a knitting machine.\n"
-                    "Subcommands: `knitc check FILE`, `knitc fmt [--check] FILE...`, "
-                    "`knitc k2dat IN.k -o OUT.dat`, `knitc dat2k IN.dat -o OUT.k`.",
-        epilog=EXAMPLES)
+        "Subcommands: `knitc check FILE`, `knitc fmt [--check] FILE...`, "
+        "`knitc k2dat IN.k -o OUT.dat`, `knitc dat2k IN.dat -o OUT.k`.",
+        epilog=EXAMPLES,
+    )
     p.add_argument("file", metavar="FILE", help="the .knit design to compile")
-    p.add_argument("-o", "--output", metavar="OUT",
-                   help="output file, `-` for standard output (default: standard output "
-                        "for --emit; without either, compile and report only)")
-    p.add_argument("--emit", metavar="IR", choices=EMITTABLE,
-                   help="print one intermediate representation as JSON: "
-                        + ", ".join(EMITTABLE))
-    p.add_argument("--format", choices=["json", "text"], default="json",
-                   help="--emit as stable JSON (default) or as a compact text form, one "
-                        "record per line")
-    p.add_argument("--until", metavar="STAGE", choices=[s.name for s in STAGES],
-                   help="run the pipeline up to this stage, report its diagnostics and "
-                        "write nothing: " + ", ".join(s.name for s in STAGES))
-    p.add_argument("--target", choices=[t.name for t in TARGETS],
-                   help="machine format: " + "; ".join(f"{t.name}, {t.doc}" for t in TARGETS)
-                        + " (default: from the -o extension)")
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="OUT",
+        help="output file, `-` for standard output (default: standard output "
+        "for --emit; without either, compile and report only)",
+    )
+    p.add_argument(
+        "--emit",
+        metavar="IR",
+        choices=EMITTABLE,
+        help="print one intermediate representation as JSON: " + ", ".join(EMITTABLE),
+    )
+    p.add_argument(
+        "--format",
+        choices=["json", "text"],
+        default="json",
+        help="--emit as stable JSON (default) or as a compact text form, one record per line",
+    )
+    p.add_argument(
+        "--until",
+        metavar="STAGE",
+        choices=[s.name for s in STAGES],
+        help="run the pipeline up to this stage, report its diagnostics and "
+        "write nothing: " + ", ".join(s.name for s in STAGES),
+    )
+    p.add_argument(
+        "--target",
+        choices=[t.name for t in TARGETS],
+        help="machine format: "
+        + "; ".join(f"{t.name}, {t.doc}" for t in TARGETS)
+        + " (default: from the -o extension)",
+    )
     p.add_argument("--version", action="version", version=f"knitc {__version__}")
     _common(p)
     return p
 
 
 def _check_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="knitc check",
-                                description="Compile a design through code generation and "
-                                "its simulation, report every problem, write nothing.")
+    p = argparse.ArgumentParser(
+        prog="knitc check",
+        description="Compile a design through code generation and "
+        "its simulation, report every problem, write nothing.",
+    )
     p.add_argument("file", metavar="FILE")
     _common(p)
     return p
 
 
 def _fmt_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="knitc fmt",
-                                description="Print .knit files in canonical form.")
+    p = argparse.ArgumentParser(
+        prog="knitc fmt", description="Print .knit files in canonical form."
+    )
     p.add_argument("files", metavar="FILE", nargs="+")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--check", action="store_true",
-                   help="print nothing; exit 1 if a file is not in canonical form")
+    g.add_argument(
+        "--check",
+        action="store_true",
+        help="print nothing; exit 1 if a file is not in canonical form",
+    )
     g.add_argument("-i", "--in-place", action="store_true", help="rewrite the files")
     return p
 
 
 def _k2dat_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="knitc k2dat",
-                                description="Convert a Knitout file to a Shima DAT file.")
+    p = argparse.ArgumentParser(
+        prog="knitc k2dat", description="Convert a Knitout file to a Shima DAT file."
+    )
     p.add_argument("file", metavar="IN.k")
-    p.add_argument("-o", "--output", metavar="OUT.dat",
-                   help="output file (default: IN with the extension .dat)")
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="OUT.dat",
+        help="output file (default: IN with the extension .dat)",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="print errors only")
     return p
 
 
 def _dat2k_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="knitc dat2k",
-                                description="Decode a Shima DAT file into Knitout.")
+    p = argparse.ArgumentParser(
+        prog="knitc dat2k", description="Decode a Shima DAT file into Knitout."
+    )
     p.add_argument("file", metavar="IN.dat")
     p.add_argument("-o", "--output", metavar="OUT.k", help="output file (default: stdout)")
-    p.add_argument("--passes", action="store_true",
-                   help="print the pass table (every raster row: direction, option bars, slot "
-                        "colour codes) as JSON instead of Knitout")
+    p.add_argument(
+        "--passes",
+        action="store_true",
+        help="print the pass table (every raster row: direction, option bars, slot "
+        "colour codes) as JSON instead of Knitout",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="print errors only")
     return p
 
@@ -131,6 +182,7 @@ def _dat2k_parser() -> argparse.ArgumentParser:
 def _report(diags: Diagnostics, quiet: bool) -> None:
     items = [d for d in diags.sorted() if d.is_error or not quiet]
     from knitc.diagnostics import render
+
     text = "".join(render(d, diags.sources) for d in items)
     if text:
         sys.stderr.write(text)
@@ -170,8 +222,9 @@ def _cmd_compile(args: argparse.Namespace) -> int:
         sys.stderr.write("knitc: error: give --emit or --until, not both\n")
         return 2
     if target == "dat" and to_stdout and not args.emit and not args.until:
-        sys.stderr.write("knitc: error: a DAT file is binary: give an output file with "
-                         "-o FILE.dat\n")
+        sys.stderr.write(
+            "knitc: error: a DAT file is binary: give an output file with -o FILE.dat\n"
+        )
         return 1
     if not args.output and not args.emit:
         args.until = args.until or STAGES[-1].name  # nothing to write: compile and report
@@ -186,7 +239,8 @@ def _cmd_compile(args: argparse.Namespace) -> int:
         return 0
     if args.emit:
         output: str | bytes | None = (emit_text if args.format == "text" else emit_json)(
-            result, args.emit)
+            result, args.emit
+        )
     else:
         output = result.output
     assert output is not None
@@ -203,6 +257,7 @@ def _dat_bytes(prog, diags: Diagnostics, quiet: bool) -> bytes | None:
     """The DAT file of a Knitout program (`k2dat`); None after reporting why the machine
     (or its DAT format) cannot take it, at the line the refused operation came from."""
     from knitc.driver import Result, resume
+
     result = Result(diags, program=prog, stage_reached=STAGES[-1].name)
     resume(result, "dat")
     if not result.ok:
@@ -224,6 +279,7 @@ def _read_input(path: str, binary: bool) -> str | bytes | None:
 
 def _cmd_k2dat(args: argparse.Namespace) -> int:
     from knitc.backends.knitout_read import KnitoutErrors, knitout_diagnostics, parse_knitout
+
     text = _read_input(args.file, binary=False)
     if text is None:
         return 1
@@ -250,6 +306,7 @@ def _cmd_dat2k(args: argparse.Namespace) -> int:
     from knitc.backends.dat_format import DatError, decode, rows
     from knitc.backends.dat_read import DatReadError, dat_to_program
     from knitc.backends.knitout import write_knitout
+
     data = _read_input(args.file, binary=True)
     if data is None:
         return 1
@@ -257,8 +314,16 @@ def _cmd_dat2k(args: argparse.Namespace) -> int:
     try:
         image = decode(data)
         if args.passes:
-            text = json.dumps({"width": image.width, "height": image.height,
-                               "rows": [r.to_json() for r in rows(image)]}) + "\n"
+            text = (
+                json.dumps(
+                    {
+                        "width": image.width,
+                        "height": image.height,
+                        "rows": [r.to_json() for r in rows(image)],
+                    }
+                )
+                + "\n"
+            )
         else:
             text = write_knitout(dat_to_program(image))
     except (DatError, DatReadError) as exc:
@@ -274,8 +339,9 @@ def _cmd_dat2k(args: argparse.Namespace) -> int:
 def _cmd_check(args: argparse.Namespace) -> int:
     # `check` runs the whole pipeline but writes nothing: a design that checks clean
     # compiles clean, and code generation's findings (E602, W60x, W80x) are reported too.
-    result = compile_file(args.file, defines=args.defines, werror="error" in args.warn,
-                          until=STAGES[-1].name)
+    result = compile_file(
+        args.file, defines=args.defines, werror="error" in args.warn, until=STAGES[-1].name
+    )
     _report(result.diagnostics, args.quiet)
     if args.time_passes:
         sys.stderr.write(timing_table(result))
@@ -286,6 +352,7 @@ def _cmd_fmt(args: argparse.Namespace) -> int:
     from knitc.frontend.fmt import format_module
     from knitc.frontend.parser import parse_source
     from knitc.source import SourceFile
+
     status = 0
     for path in args.files:
         diags = Diagnostics()
@@ -319,11 +386,21 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         # Options may come before the subcommand (`knitc -D x=1 check f.knit`).
-        sub = next((i for i, a in enumerate(argv) if a in ("check", "fmt", "k2dat", "dat2k")
-                    and (i == 0 or argv[i - 1] not in ("-D", "-o", "--output", "--emit", "-W",
-                                                       "--target", "--until"))), None)
+        sub = next(
+            (
+                i
+                for i, a in enumerate(argv)
+                if a in ("check", "fmt", "k2dat", "dat2k")
+                and (
+                    i == 0
+                    or argv[i - 1]
+                    not in ("-D", "-o", "--output", "--emit", "-W", "--target", "--until")
+                )
+            ),
+            None,
+        )
         if sub is not None:
-            rest = argv[:sub] + argv[sub + 1:]
+            rest = argv[:sub] + argv[sub + 1 :]
             if argv[sub] == "check":
                 return _cmd_check(_check_parser().parse_args(rest))
             if argv[sub] == "k2dat":
@@ -343,7 +420,8 @@ def main(argv: list[str] | None = None) -> int:
         sys.stderr.write(
             f"knitc: internal error: {type(exc).__name__}: {exc}\n"
             "This is a bug in knitc, not in your design. Please report it with the input "
-            "file and this message:\n")
+            "file and this message:\n"
+        )
         traceback.print_exc(file=sys.stderr)
         return 3
 

@@ -56,14 +56,28 @@ class Diagnostics:
     def add_source(self, source: SourceFile) -> None:
         self.sources[source.path] = source
 
-    def error(self, code: str, message: str, span: Span | None, *,
-              notes: Iterable[Note] = (), hint: str | None = None) -> Diagnostic:
+    def error(
+        self,
+        code: str,
+        message: str,
+        span: Span | None,
+        *,
+        notes: Iterable[Note] = (),
+        hint: str | None = None,
+    ) -> Diagnostic:
         d = Diagnostic(Severity.ERROR, code, message, span, tuple(notes), hint)
         self.items.append(d)
         return d
 
-    def warning(self, code: str, message: str, span: Span | None, *,
-                notes: Iterable[Note] = (), hint: str | None = None) -> Diagnostic:
+    def warning(
+        self,
+        code: str,
+        message: str,
+        span: Span | None,
+        *,
+        notes: Iterable[Note] = (),
+        hint: str | None = None,
+    ) -> Diagnostic:
         d = Diagnostic(Severity.WARNING, code, message, span, tuple(notes), hint)
         self.items.append(d)
         return d
@@ -94,17 +108,20 @@ class Diagnostics:
         """`-W error`: every warning becomes an error with the same code."""
         self.items = [
             Diagnostic(Severity.ERROR, d.code, d.message, d.span, d.notes, d.hint)
-            if not d.is_error else d
+            if not d.is_error
+            else d
             for d in self.items
         ]
 
     def sorted(self) -> list[Diagnostic]:
         """Stable, source-ordered list (by file, then position, then insertion)."""
+
         def key(item: tuple[int, Diagnostic]) -> tuple[object, ...]:
             i, d = item
             if d.span is None:
                 return ("", 0, 0, i)
             return (d.span.file, d.span.line, d.span.column, i)
+
         return [d for _, d in sorted(enumerate(self.items), key=key)]
 
     def render(self) -> str:
@@ -130,8 +147,9 @@ def _excerpt(span: Span, sources: dict[str, SourceFile], gutter: int) -> list[st
     return [f"{span.line:>{gutter}} | {expanded}\n", f"{pad} | {caret}\n"]
 
 
-def at_designer(span: Span, note: str = "written here, in the applied pattern"
-                ) -> tuple[Span, list[Note]]:
+def at_designer(
+    span: Span, note: str = "written here, in the applied pattern"
+) -> tuple[Span, list[Note]]:
     """Where to report a finding about code expanded from the designer's line: at that line
     (the outermost span of the chain), with a note at each definition it expanded through.
     (`render` prints a chained span the other way, innermost first and "while expanding"

@@ -88,14 +88,17 @@ class Stage:
 
 # ---- the stages, in pipeline order ----------------------------------------------------------
 
+
 def _parse(r: Result) -> bool:
     from knitc.frontend.parser import parse_source
+
     r.module = parse_source(SourceFile(r.path, r.text), r.diagnostics)
     return r.module is not None
 
 
 def _resolve(r: Result) -> bool:
     from knitc.frontend.resolve import resolve
+
     assert r.module is not None
     r.skeleton = resolve(r.module, r.path, r.diagnostics, r.defines)
     return r.skeleton is not None
@@ -105,6 +108,7 @@ def _stitch_graph(r: Result) -> bool:
     from knitc.patterning.instructions import check_instructions
     from knitc.patterning.pattern import apply_patterns
     from knitc.shaping.shape import build_stitch_graph
+
     assert r.skeleton is not None
     graph = build_stitch_graph(r.skeleton, r.diagnostics)
     if graph is None:
@@ -117,6 +121,7 @@ def _stitch_graph(r: Result) -> bool:
 
 def _trace(r: Result) -> bool:
     from knitc.scheduling.tracing import trace_courses
+
     assert r.graph is not None
     r.trace = trace_courses(r.graph)
     return True
@@ -124,31 +129,43 @@ def _trace(r: Result) -> bool:
 
 def _slice(r: Result) -> bool:
     from knitc.scheduling.slicing import slice_trace
+
     assert r.skeleton is not None and r.graph is not None and r.trace is not None
     m = r.skeleton.machine
-    limits = {"flat_limit": m.slice_shaping, "tube_limit": m.slice_shaping} \
-        if m.slice_shaping else {}
+    limits = (
+        {"flat_limit": m.slice_shaping, "tube_limit": m.slice_shaping} if m.slice_shaping else {}
+    )
     r.slices = slice_trace(r.graph, r.trace, **limits)
     return True
 
 
 def _schedule(r: Result) -> bool:
     from knitc.scheduling.scheduler import schedule
+
     assert r.skeleton is not None and r.graph is not None and r.slices is not None
-    r.schedule = schedule(r.graph, r.slices, needles=r.skeleton.machine.needles,
-                          diags=r.diagnostics)
+    r.schedule = schedule(
+        r.graph, r.slices, needles=r.skeleton.machine.needles, diags=r.diagnostics
+    )
     return r.schedule is not None
 
 
 def _generate(r: Result) -> bool:
     from knitc.codegen.generate import generate, options_from_skeleton
     from knitc.codegen.simulate import add_to_diagnostics, simulate
+
     assert r.skeleton is not None and r.graph is not None
     assert r.schedule is not None and r.trace is not None
     m = r.skeleton.machine
     machine = mp.Machine(name=m.model, needles=m.needles, racking_limit=m.racking)
-    program = generate(r.graph, r.schedule, r.trace, machine=machine, carriers=m.carriers,
-                       diags=r.diagnostics, options=options_from_skeleton(r.skeleton))
+    program = generate(
+        r.graph,
+        r.schedule,
+        r.trace,
+        machine=machine,
+        carriers=m.carriers,
+        diags=r.diagnostics,
+        options=options_from_skeleton(r.skeleton),
+    )
     if program is None:
         return False
     _verify("machine", mp.verify(program))
@@ -159,6 +176,7 @@ def _generate(r: Result) -> bool:
 
 def _knitout(r: Result) -> bool:
     from knitc.backends.knitout import write_knitout
+
     assert r.program is not None
     r.output = write_knitout(r.program)
     return True
@@ -169,6 +187,7 @@ def _dat(r: Result) -> bool:
     format) cannot take."""
     from knitc.backends.dat_format import DatError, encode
     from knitc.backends.dat_write import DatWriteError, to_dat
+
     prog = r.program
     assert prog is not None
     try:
@@ -176,9 +195,12 @@ def _dat(r: Result) -> bool:
     except (DatWriteError, DatError) as exc:
         index = getattr(exc, "op_index", None)
         op = prog.ops[index] if index is not None and 0 <= index < len(prog.ops) else None
-        r.diagnostics.error("E901", f"cannot write a DAT file: {getattr(exc, 'message', exc)}",
-                            op.span if op is not None else None,
-                            notes=[] if op is None else [Note(f"the operation: `{op}`")])
+        r.diagnostics.error(
+            "E901",
+            f"cannot write a DAT file: {getattr(exc, 'message', exc)}",
+            op.span if op is not None else None,
+            notes=[] if op is None else [Note(f"the operation: `{op}`")],
+        )
         return False
     return True
 
@@ -186,6 +208,7 @@ def _dat(r: Result) -> bool:
 def _ast_text(r: Result) -> str:
     """The AST's text form is the canonical source (`knitc fmt`)."""
     from knitc.frontend.fmt import format_module
+
     return format_module(_the(r.module))
 
 
@@ -196,22 +219,56 @@ def _the(ir: T | None) -> T:
 
 
 STAGES: tuple[Stage, ...] = (
-    Stage("ast", _parse, None, lambda r: ast.to_json(_the(r.module)),
-          "the syntax tree, every node with its source span", text=_ast_text),
-    Stage("skeleton", _resolve, None, lambda r: sk.to_json(_the(r.skeleton)),
-          "the primitives with resolved parameters, interfaces and connections"),
-    Stage("stitch-graph", _stitch_graph, lambda r: sg.verify(_the(r.graph)),
-          lambda r: sg.to_json(_the(r.graph)),
-          "stitches, courses and wales, with pattern instructions and actions"),
-    Stage("trace", _trace, lambda r: tr.verify(_the(r.graph), _the(r.trace)),
-          lambda r: tr.to_json(_the(r.graph), _the(r.trace)), "the yarn path through every stitch"),
-    Stage("slices", _slice, lambda r: sl.verify(_the(r.graph), _the(r.trace), _the(r.slices)),
-          lambda r: sl.to_json(_the(r.graph), _the(r.slices)), "the trace cut into bed slices"),
-    Stage("schedule", _schedule, lambda r: sc.verify(_the(r.graph), _the(r.schedule)),
-          lambda r: sc.to_json(_the(r.graph), _the(r.schedule)), "each slice's layout and needle offset"),
-    Stage("machine", _generate, lambda r: mp.verify(_the(r.program)),
-          lambda r: mp.to_json(_the(r.program)),
-          "machine operations, each with its stitch and source line (simulated)"),
+    Stage(
+        "ast",
+        _parse,
+        None,
+        lambda r: ast.to_json(_the(r.module)),
+        "the syntax tree, every node with its source span",
+        text=_ast_text,
+    ),
+    Stage(
+        "skeleton",
+        _resolve,
+        None,
+        lambda r: sk.to_json(_the(r.skeleton)),
+        "the primitives with resolved parameters, interfaces and connections",
+    ),
+    Stage(
+        "stitch-graph",
+        _stitch_graph,
+        lambda r: sg.verify(_the(r.graph)),
+        lambda r: sg.to_json(_the(r.graph)),
+        "stitches, courses and wales, with pattern instructions and actions",
+    ),
+    Stage(
+        "trace",
+        _trace,
+        lambda r: tr.verify(_the(r.graph), _the(r.trace)),
+        lambda r: tr.to_json(_the(r.graph), _the(r.trace)),
+        "the yarn path through every stitch",
+    ),
+    Stage(
+        "slices",
+        _slice,
+        lambda r: sl.verify(_the(r.graph), _the(r.trace), _the(r.slices)),
+        lambda r: sl.to_json(_the(r.graph), _the(r.slices)),
+        "the trace cut into bed slices",
+    ),
+    Stage(
+        "schedule",
+        _schedule,
+        lambda r: sc.verify(_the(r.graph), _the(r.schedule)),
+        lambda r: sc.to_json(_the(r.graph), _the(r.schedule)),
+        "each slice's layout and needle offset",
+    ),
+    Stage(
+        "machine",
+        _generate,
+        lambda r: mp.verify(_the(r.program)),
+        lambda r: mp.to_json(_the(r.program)),
+        "machine operations, each with its stitch and source line (simulated)",
+    ),
 )
 """The IR stages in pipeline order."""
 
@@ -232,8 +289,9 @@ def stage(name: str) -> Stage:
     try:
         return _BY_NAME[name]
     except KeyError:
-        raise ValueError(f"unknown stage {name!r}: expected one of "
-                         + ", ".join(_BY_NAME)) from None
+        raise ValueError(
+            f"unknown stage {name!r}: expected one of " + ", ".join(_BY_NAME)
+        ) from None
 
 
 def _verify(name: str, problems: list[str]) -> None:
@@ -244,12 +302,13 @@ def _verify(name: str, problems: list[str]) -> None:
 
 # ---- running it -----------------------------------------------------------------------------
 
+
 def resume(result: Result, until: str = "machine") -> Result:
     """Continue `result` through stage `until` (an IR stage or a target), reusing the IRs it
     already holds. Stops early after a stage that reported errors."""
     names = [s.name for s in STAGES]
-    plan = STAGES[:names.index(until) + 1] if until in names else STAGES + (stage(until),)
-    for step in plan[_index(result.stage_reached):]:
+    plan = STAGES[: names.index(until) + 1] if until in names else STAGES + (stage(until),)
+    for step in plan[_index(result.stage_reached) :]:
         if result.diagnostics.has_errors:
             break
         start = time.perf_counter()
@@ -272,10 +331,17 @@ def _index(name: str) -> int:
     return names.index(name) + 1 if name in names else 0
 
 
-def compile_source(text: str, path: str, *, defines: list[str] | tuple[str, ...] = (),
-                   until: str = "skeleton", werror: bool = False) -> Result:
+def compile_source(
+    text: str,
+    path: str,
+    *,
+    defines: list[str] | tuple[str, ...] = (),
+    until: str = "skeleton",
+    werror: bool = False,
+) -> Result:
     """Run the pipeline on `text` up to and including stage `until`."""
     from knitc.frontend.resolve import parse_define
+
     stage(until)  # a misspelt stage is a mistake of the caller, not "run everything"
     result = Result(Diagnostics(), path=path, text=text, werror=werror)
     for d in defines:
@@ -310,6 +376,7 @@ def emit_text(result: Result, name: str) -> str:
         _dump(result, name)  # the same checks
         return s.text(result)
     from knitc.text_form import render
+
     return render(_dump(result, name))
 
 

@@ -31,8 +31,16 @@ class Span:
         return f"{self.file}:{self.line}:{self.column}"
 
     def with_parent(self, parent: Span | None) -> Span:
-        return Span(self.file, self.line, self.column, self.end_line, self.end_column,
-                    self.start, self.end, parent)
+        return Span(
+            self.file,
+            self.line,
+            self.column,
+            self.end_line,
+            self.end_column,
+            self.start,
+            self.end,
+            parent,
+        )
 
     def chain(self) -> tuple[Span, ...]:
         """The spans this one was expanded from and itself, outermost (the designer's line)

@@ -21,10 +21,20 @@ import json
 from typing import Any
 
 SINGULAR = {
-    "nodes": "node", "interfaces": "itf", "connections": "connect", "starts": "start",
-    "components": "component", "layers": "layer", "courses": "course", "stitches": "stitch",
-    "yarns": "yarn", "visits": "visit", "slices": "slice", "alignments": "align",
-    "ops": "op", "params": "param",
+    "nodes": "node",
+    "interfaces": "itf",
+    "connections": "connect",
+    "starts": "start",
+    "components": "component",
+    "layers": "layer",
+    "courses": "course",
+    "stitches": "stitch",
+    "yarns": "yarn",
+    "visits": "visit",
+    "slices": "slice",
+    "alignments": "align",
+    "ops": "op",
+    "params": "param",
 }
 """The head of each record of a top-level list."""
 
@@ -39,8 +49,7 @@ def render(dump: dict[str, Any]) -> str:
             head = SINGULAR.get(key, key)
             for i, record in enumerate(value):
                 lines.append(_record(head, record, i))
-        elif isinstance(value, dict) and value and all(isinstance(v, dict) for v in
-                                                        value.values()):
+        elif isinstance(value, dict) and value and all(isinstance(v, dict) for v in value.values()):
             for name, record in value.items():
                 lines.append(_record(f"{SINGULAR.get(key, key)} {_atom(name)}", record, None))
         elif isinstance(value, dict):
@@ -90,8 +99,13 @@ def _value(v: Any) -> str:
     if isinstance(v, dict):
         return "{" + " ".join(f"{k}={_value(x)}" for k, x in v.items()) + "}"
     if isinstance(v, list):
-        return "[" + ",".join(":".join(_value(y) for y in x) if isinstance(x, list)
-                              else _value(x) for x in v) + "]"
+        return (
+            "["
+            + ",".join(
+                ":".join(_value(y) for y in x) if isinstance(x, list) else _value(x) for x in v
+            )
+            + "]"
+        )
     return _atom(v)
 
 
@@ -103,7 +117,7 @@ def _atom(v: Any) -> str:
     if v is None:
         return "-"
     if isinstance(v, str):
-        if v == "" or any(c in v for c in " \t\n[]{}=,:\"") and not _path_like(v):
+        if v == "" or any(c in v for c in ' \t\n[]{}=,:"') and not _path_like(v):
             return json.dumps(v)
         return v
     return json.dumps(v)
@@ -111,4 +125,4 @@ def _atom(v: Any) -> str:
 
 def _path_like(v: str) -> bool:
     """A file name or path (may hold `:`, never spaces)."""
-    return " " not in v and "/" in v and not any(c in v for c in "[]{}=,\"\n\t")
+    return " " not in v and "/" in v and not any(c in v for c in '[]{}=,"\n\t')

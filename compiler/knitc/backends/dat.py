@@ -109,5 +109,10 @@ class Row:
     """Colour codes from the left stop-mark column to the right one, inclusive."""
 
     def to_json(self) -> dict[str, Any]:
-        return {"y": self.y, "dir": self.direction, "L": list(self.left),
-                "R": list(self.right), "slots": list(self.slots)}
+        return {
+            "y": self.y,
+            "dir": self.direction,
+            "L": list(self.left),
+            "R": list(self.right),
+            "slots": list(self.slots),
+        }

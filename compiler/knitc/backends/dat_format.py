@@ -148,7 +148,7 @@ def pack(raster: np.ndarray) -> bytes:
 
 
 def _u16(data: bytes, offset: int) -> int:
-    return int.from_bytes(data[offset:offset + 2], "little")
+    return int.from_bytes(data[offset : offset + 2], "little")
 
 
 def read_raster(data: bytes, *, strict: bool = False) -> np.ndarray:
@@ -157,8 +157,9 @@ def read_raster(data: bytes, *, strict: bool = False) -> np.ndarray:
     canonical (greedy, per-row) runs, i.e. ``pack(read_raster(b, strict=True)) == b``."""
     data = bytes(data)
     if len(data) < HEADER_SIZE:
-        raise DatError(f"truncated DAT: {len(data)} bytes, shorter than the "
-                       f"{HEADER_SIZE}-byte header")
+        raise DatError(
+            f"truncated DAT: {len(data)} bytes, shorter than the {HEADER_SIZE}-byte header"
+        )
     if (len(data) - HEADER_SIZE) % 2:
         raise DatError("truncated DAT: the run-length data has an odd number of bytes")
     x_min, y_min, x_max, y_max = (_u16(data, k) for k in (0, 2, 4, 6))
@@ -172,22 +173,29 @@ def read_raster(data: bytes, *, strict: bool = False) -> np.ndarray:
     total, wanted = int(lengths.sum()), width * height
     if total != wanted:
         if total < wanted:
-            raise DatError(f"truncated DAT: the run-length data gives {total} pixels, the "
-                           f"{width} x {height} raster needs {wanted}")
-        raise DatError(f"DAT run-length data overflows: {total} pixels for a "
-                       f"{width} x {height} raster of {wanted}")
+            raise DatError(
+                f"truncated DAT: the run-length data gives {total} pixels, the "
+                f"{width} x {height} raster needs {wanted}"
+            )
+        raise DatError(
+            f"DAT run-length data overflows: {total} pixels for a "
+            f"{width} x {height} raster of {wanted}"
+        )
     raster = np.repeat(runs[:, 0], lengths).reshape(height, width)
     if strict and _rle(raster) != data[HEADER_SIZE:]:
-        raise DatError("DAT run-length data is not in the canonical form (one greedy run per "
-                       "colour change, split at 255, never crossing a row end)")
+        raise DatError(
+            "DAT run-length data is not in the canonical form (one greedy run per "
+            "colour change, split at 255, never crossing a row end)"
+        )
     return raster
 
 
 def _check_container(data: bytes) -> None:
     for offset in (8, 0x10):
         if _u16(data, offset) != MAGIC:
-            raise DatError(f"DAT header word at 0x{offset:03x} is {_u16(data, offset)}, "
-                           f"not {MAGIC}")
+            raise DatError(
+                f"DAT header word at 0x{offset:03x} is {_u16(data, offset)}, not {MAGIC}"
+            )
     zero = data[0xA:0x10] + data[0x12:PALETTE_OFFSET] + data[PADDING_OFFSET:HEADER_SIZE]
     if any(zero):
         raise DatError("DAT header has non-zero bytes outside its size and magic words")
@@ -262,8 +270,9 @@ def _option_matrix(passes: list[DatPass], side: str) -> np.ndarray:
     bad = np.argwhere((matrix < 0) | (matrix > 255))
     if bad.size:
         i, k = bad[0]
-        raise DatError(f"pass {i}: option {side}{k + 1} = {matrix[i, k]} does not fit a "
-                       "colour index (0..255)")
+        raise DatError(
+            f"pass {i}: option {side}{k + 1} = {matrix[i, k]} does not fit a colour index (0..255)"
+        )
     return matrix
 
 
@@ -289,13 +298,17 @@ def render(image: DatImage) -> np.ndarray:
     outside = np.flatnonzero((slots < image.min_slot) | (slots > image.max_slot))
     if outside.size:
         k = outside[0]
-        raise DatError(f"pass {pass_of[k]}: slot {slots[k]} outside the image's slot range "
-                       f"{image.min_slot}..{image.max_slot}")
+        raise DatError(
+            f"pass {pass_of[k]}: slot {slots[k]} outside the image's slot range "
+            f"{image.min_slot}..{image.max_slot}"
+        )
     bad = np.flatnonzero((codes < 1) | (codes > 255) | (codes == STOP))
     if bad.size:
         k = bad[0]
-        raise DatError(f"pass {pass_of[k]}: slot {slots[k]} has colour {codes[k]}; a slot "
-                       f"colour is 1..255 and not the stop mark {STOP}")
+        raise DatError(
+            f"pass {pass_of[k]}: slot {slots[k]} has colour {codes[k]}; a slot "
+            f"colour is 1..255 and not the stop mark {STOP}"
+        )
     x = slots - image.min_slot + SLOT_X
     ys = pass_of + PASS_Y
     raster[ys, x] = codes
@@ -309,7 +322,7 @@ def render(image: DatImage) -> np.ndarray:
     fixed = _START + _end_courses(image.carriage_left_at_end)
     fixed_y = [5, 6, 7, n + 8, n + 9, n + 10]
     for y, (colour, _, _, _) in zip(fixed_y, fixed, strict=True):
-        raster[y, SLOT_X:SLOT_X + p] = colour
+        raster[y, SLOT_X : SLOT_X + p] = colour
         raster[y, SLOT_X - 1] = raster[y, SLOT_X + p] = STOP
 
     # Option bars of every course (fixed and pass rows): markers, values, direction.
@@ -317,14 +330,26 @@ def render(image: DatImage) -> np.ndarray:
     bad_dir = [i for i, d in enumerate(directions) if d not in (RIGHT, LEFT, NONE)]
     if bad_dir:
         i = bad_dir[0]
-        raise DatError(f"pass {i}: direction code {directions[i]} is not "
-                       f"{RIGHT} (right), {LEFT} (left) or {NONE} (none)")
+        raise DatError(
+            f"pass {i}: direction code {directions[i]} is not "
+            f"{RIGHT} (right), {LEFT} (left) or {NONE} (none)"
+        )
     course_y = np.array(fixed_y[:3] + list(range(PASS_Y, PASS_Y + n)) + fixed_y[3:])
     course_dir = np.array([f[1] for f in fixed[:3]] + directions + [f[1] for f in fixed[3:]])
-    lefts = np.vstack([np.array([f[2] for f in fixed[:3]]), _option_matrix(passes, "L"),
-                       np.array([f[2] for f in fixed[3:]])])
-    rights = np.vstack([np.array([f[3] for f in fixed[:3]]), _option_matrix(passes, "R"),
-                        np.array([f[3] for f in fixed[3:]])])
+    lefts = np.vstack(
+        [
+            np.array([f[2] for f in fixed[:3]]),
+            _option_matrix(passes, "L"),
+            np.array([f[2] for f in fixed[3:]]),
+        ]
+    )
+    rights = np.vstack(
+        [
+            np.array([f[3] for f in fixed[:3]]),
+            _option_matrix(passes, "R"),
+            np.array([f[3] for f in fixed[3:]]),
+        ]
+    )
     markers = np.arange(1, N_OPTIONS + 1)
     r_x = _r_value_x(p)
     raster[course_y[:, None], _L_VALUE_X] = lefts
@@ -336,7 +361,7 @@ def render(image: DatImage) -> np.ndarray:
 
     # Width row (slots min-5 .. max+5) and the position code in the L1 value column.
     width_y = height - 7
-    raster[width_y, SLOT_X - 5:SLOT_X + p + 5] = 1
+    raster[width_y, SLOT_X - 5 : SLOT_X + p + 5] = 1
     pos = image.position or 0
     if not 0 <= pos <= 255 * 100 + 99:
         raise DatError(f"position code {pos} does not fit a DAT (0..25599)")
@@ -387,11 +412,15 @@ def _describe(y: int, x: int, p: int, n: int) -> str:
 def _geometry(raster: np.ndarray) -> tuple[int, int]:
     height, width = raster.shape
     if width < 2 * SIDE + 1:
-        raise DatError(f"DAT raster is {width} wide; the layout needs at least {2 * SIDE + 1} "
-                       "(110 columns of margins and option bars plus one slot)")
+        raise DatError(
+            f"DAT raster is {width} wide; the layout needs at least {2 * SIDE + 1} "
+            "(110 columns of margins and option bars plus one slot)"
+        )
     if height < PASS_Y + TOP:
-        raise DatError(f"DAT raster is {height} high; the layout needs at least "
-                       f"{PASS_Y + TOP} rows (blank, fixed and width rows)")
+        raise DatError(
+            f"DAT raster is {height} high; the layout needs at least "
+            f"{PASS_Y + TOP} rows (blank, fixed and width rows)"
+        )
     return width - 2 * SIDE, height - PASS_Y - TOP
 
 
@@ -403,28 +432,37 @@ def _first(mask: np.ndarray) -> int | None:
 
 def _read_passes(raster: np.ndarray, p: int, n: int, min_slot: int) -> list[DatPass]:
     """The pass rows, vectorised over rows: stop marks, slots between them, option bars."""
-    body = raster[PASS_Y:PASS_Y + n]
-    band = body[:, SLOT_X - 1:SLOT_X + p + 1].astype(np.int64)
+    body = raster[PASS_Y : PASS_Y + n]
+    band = body[:, SLOT_X - 1 : SLOT_X + p + 1].astype(np.int64)
     stop = band == STOP
     stops = stop.sum(axis=1)
     if (i := _first(stops != 2)) is not None:
-        raise DatError(f"{_describe(PASS_Y + i, SLOT_X, p, n)}: a pass row has "
-                       f"{stops[i]} stop marks ({STOP}) over its slots, not 2")
+        raise DatError(
+            f"{_describe(PASS_Y + i, SLOT_X, p, n)}: a pass row has "
+            f"{stops[i]} stop marks ({STOP}) over its slots, not 2"
+        )
     first = np.argmax(stop, axis=1)
     last = band.shape[1] - 1 - np.argmax(stop[:, ::-1], axis=1)
     rows_i = np.arange(n)
-    loose = ((last - first < 2) | (band[rows_i, first + 1] == 0)
-             | (band[rows_i, np.maximum(last - 1, 0)] == 0))
+    loose = (
+        (last - first < 2)
+        | (band[rows_i, first + 1] == 0)
+        | (band[rows_i, np.maximum(last - 1, 0)] == 0)
+    )
     if (i := _first(loose)) is not None:
-        raise DatError(f"{_describe(PASS_Y + i, SLOT_X, p, n)}: the stop marks of a pass "
-                       "must sit right next to its first and last slot")
+        raise DatError(
+            f"{_describe(PASS_Y + i, SLOT_X, p, n)}: the stop marks of a pass "
+            "must sit right next to its first and last slot"
+        )
     cols = np.arange(band.shape[1])
     inside = (cols > first[:, None]) & (cols < last[:, None])
     stray = np.argwhere((band != 0) & ~inside & ~stop)
     if stray.size:
         i, c = stray[0]
-        raise DatError(f"{_describe(PASS_Y + int(i), SLOT_X - 1 + int(c), p, n)}: colour "
-                       f"{band[i, c]} outside the pass's stop marks")
+        raise DatError(
+            f"{_describe(PASS_Y + int(i), SLOT_X - 1 + int(c), p, n)}: colour "
+            f"{band[i, c]} outside the pass's stop marks"
+        )
     ri, ci = np.nonzero(inside & (band != 0))
     slot_list = (ci - 1 + min_slot).tolist()
     code_list = band[ri, ci].tolist()
@@ -433,19 +471,31 @@ def _read_passes(raster: np.ndarray, p: int, n: int, min_slot: int) -> list[DatP
     direction = body[:, _L_VALUE_X[0] + 1].astype(np.int64)
     r_x = _r_value_x(p)
     if (i := _first(direction != body[:, r_x[0] - 1])) is not None:
-        raise DatError(f"{_describe(PASS_Y + i, 49, p, n)}: direction code "
-                       f"{direction[i]} differs from the right bar's {body[i, r_x[0] - 1]}")
+        raise DatError(
+            f"{_describe(PASS_Y + i, 49, p, n)}: direction code "
+            f"{direction[i]} differs from the right bar's {body[i, r_x[0] - 1]}"
+        )
     if (i := _first(~np.isin(direction, (RIGHT, LEFT, NONE)))) is not None:
-        raise DatError(f"{_describe(PASS_Y + i, 49, p, n)}: direction code "
-                       f"{direction[i]} is not {RIGHT}, {LEFT} or {NONE}")
+        raise DatError(
+            f"{_describe(PASS_Y + i, 49, p, n)}: direction code "
+            f"{direction[i]} is not {RIGHT}, {LEFT} or {NONE}"
+        )
     lefts = body[:, _L_VALUE_X].tolist()
     rights = body[:, r_x].tolist()
     dirs = direction.tolist()
     return [
-        DatPass(direction=dirs[i],
-                slots=dict(zip(slot_list[bounds[i]:bounds[i + 1]],
-                               code_list[bounds[i]:bounds[i + 1]], strict=True)),
-                left=lefts[i], right=rights[i])
+        DatPass(
+            direction=dirs[i],
+            slots=dict(
+                zip(
+                    slot_list[bounds[i] : bounds[i + 1]],
+                    code_list[bounds[i] : bounds[i + 1]],
+                    strict=True,
+                )
+            ),
+            left=lefts[i],
+            right=rights[i],
+        )
         for i in range(n)
     ]
 
@@ -463,24 +513,33 @@ def decode(data: bytes, *, min_slot: int | None = None, strict: bool = False) ->
     height = raster.shape[0]
     low, high = int(raster[height - 7, POSITION_X]), int(raster[height - 6, POSITION_X])
     if low > 99:
-        raise DatError(f"{_describe(height - 7, POSITION_X, p, n)}: position code low part "
-                       f"{low} is not 0..99")
+        raise DatError(
+            f"{_describe(height - 7, POSITION_X, p, n)}: position code low part {low} is not 0..99"
+        )
     position = high * 100 + low
     if min_slot is None:
         min_slot = position if position >= 1 else 1
     end_r5 = int(raster[PASS_Y + n, _r_value_x(p)[4]])
     if end_r5 not in (0, 2):
-        raise DatError(f"{_describe(PASS_Y + n, int(_r_value_x(p)[4]), p, n)}: the first fixed "
-                       f"end course has R5 = {end_r5}, not 0 or 2 (carriage move)")
-    image = DatImage(passes=_read_passes(raster, p, n, min_slot), min_slot=min_slot,
-                     max_slot=min_slot + p - 1, position=position,
-                     carriage_left_at_end=end_r5 == 2)
+        raise DatError(
+            f"{_describe(PASS_Y + n, int(_r_value_x(p)[4]), p, n)}: the first fixed "
+            f"end course has R5 = {end_r5}, not 0 or 2 (carriage move)"
+        )
+    image = DatImage(
+        passes=_read_passes(raster, p, n, min_slot),
+        min_slot=min_slot,
+        max_slot=min_slot + p - 1,
+        position=position,
+        carriage_left_at_end=end_r5 == 2,
+    )
     expected = render(image)
     diff = np.argwhere(expected != raster)
     if diff.size:
         y, x = (int(v) for v in diff[0])
-        raise DatError(f"{_describe(y, x, p, n)}: colour {raster[y, x]} where the DAT layout "
-                       f"has {expected[y, x]}")
+        raise DatError(
+            f"{_describe(y, x, p, n)}: colour {raster[y, x]} where the DAT layout "
+            f"has {expected[y, x]}"
+        )
     return image
 
 
@@ -500,7 +559,14 @@ def rows(data_or_image: bytes | DatImage) -> list[Row]:
     directions = raster[:, _L_VALUE_X[0] + 1].tolist()
     lefts = raster[:, _L_VALUE_X].tolist()
     rights = raster[:, _r_value_x(p)].tolist()
-    bands = raster[:, SLOT_X - 1:SLOT_X + p + 1].tolist()
-    return [Row(y=y, direction=directions[y], left=tuple(lefts[y]), right=tuple(rights[y]),
-                slots=tuple(bands[y]))
-            for y in range(height)]
+    bands = raster[:, SLOT_X - 1 : SLOT_X + p + 1].tolist()
+    return [
+        Row(
+            y=y,
+            direction=directions[y],
+            left=tuple(lefts[y]),
+            right=tuple(rights[y]),
+            slots=tuple(bands[y]),
+        )
+        for y in range(height)
+    ]

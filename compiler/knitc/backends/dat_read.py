@@ -108,8 +108,7 @@ from knitc.backends.dat import (
 from knitc.backends.knitout_read import gc_paused
 from knitc.codegen.machine import Machine, MachineProgram, Needle, Op
 
-__all__ = ["DEFAULT_WIDTH", "DatReadError", "carriers_of_code", "dat_to_program",
-           "racking_of"]
+__all__ = ["DEFAULT_WIDTH", "DatReadError", "carriers_of_code", "dat_to_program", "racking_of"]
 
 DEFAULT_WIDTH = 540
 """Bed width the converter assumes without a ``;;Width:`` header."""
@@ -122,16 +121,30 @@ NO_YARN = (0, 255)
 
 # (front op, back op) of every needle colour; None = nothing on that bed.
 _PAIRS: dict[int, tuple[str | None, str | None]] = {
-    KNIT_F: ("knit", None), KNIT_B: (None, "knit"),
-    TUCK_F: ("tuck", None), TUCK_B: (None, "tuck"),
-    KNIT_FB: ("knit", "knit"), KNIT_F_TUCK_B: ("knit", "tuck"),
-    TUCK_F_KNIT_B: ("tuck", "knit"), TUCK_FB: ("tuck", "tuck"),
-    MISS_F: ("miss", None), MISS_B: (None, "miss"),
+    KNIT_F: ("knit", None),
+    KNIT_B: (None, "knit"),
+    TUCK_F: ("tuck", None),
+    TUCK_B: (None, "tuck"),
+    KNIT_FB: ("knit", "knit"),
+    KNIT_F_TUCK_B: ("knit", "tuck"),
+    TUCK_F_KNIT_B: ("tuck", "knit"),
+    TUCK_FB: ("tuck", "tuck"),
+    MISS_F: ("miss", None),
+    MISS_B: (None, "miss"),
 }
 _SVS: dict[int, tuple[bool, int]] = {
-    106: (True, -1), 107: (True, 1), 108: (False, 1), 109: (False, -1),
-    126: (True, -2), 127: (True, 2), 128: (False, 2), 129: (False, -2),
-    146: (True, -4), 147: (True, 4), 148: (False, 4), 149: (False, -4),
+    106: (True, -1),
+    107: (True, 1),
+    108: (False, 1),
+    109: (False, -1),
+    126: (True, -2),
+    127: (True, 2),
+    128: (False, 2),
+    129: (False, -2),
+    146: (True, -4),
+    147: (True, 4),
+    148: (False, 4),
+    149: (False, -4),
 }
 """Split-via-sliders colour -> (splits from the front, return racking - split racking)."""
 
@@ -239,8 +252,7 @@ class _Reader:
         cs = self.carriers(r3)
         if hook == HOOK_RELEASE:
             if self.hook is None:
-                raise self.fail("hook release (R15 = 90) but no row brought yarn in with the "
-                                "hook")
+                raise self.fail("hook release (R15 = 90) but no row brought yarn in with the hook")
             ops.append(Op("releasehook", carriers=self.hook))
             self.hook = None
         taken_out: tuple[int, ...] = ()
@@ -270,13 +282,16 @@ class _Reader:
         began with an op whose column was taken there: put such a column first, or the
         writer would fold the row's first ops into the previous row."""
         before = self.image.passes[self.row - 1]
-        if before.right[2] != p.right[2] or before.left[1:4] != p.left[1:4] \
-                or before.left[11:13] != p.left[11:13]:
+        if (
+            before.right[2] != p.right[2]
+            or before.left[1:4] != p.left[1:4]
+            or before.left[11:13] != p.left[11:13]
+        ):
             return order  # other carriers, racking or pass type: no merging anyway
         prev = before.slots
         for k, s in enumerate(order):
             if s in prev and _collide(prev[s], p.slots[s], quarter):
-                return [s] + order[:k] + order[k + 1:] if k else order
+                return [s] + order[:k] + order[k + 1 :] if k else order
         return order
 
     def needle_ops(self, p: DatPass, cs: tuple[int, ...]) -> None:
@@ -302,8 +317,9 @@ class _Reader:
                         continue
                     if cs:
                         if not d:
-                            raise self.fail(f"colour {code} with carriers in a row without a "
-                                            "direction", s)
+                            raise self.fail(
+                                f"colour {code} with carriers in a row without a direction", s
+                            )
                         ops.append(Op(kind, d, n, None, cs))
                     elif kind == "miss":
                         raise self.fail(f"miss colour {code} in a row without carriers", s)
@@ -318,25 +334,32 @@ class _Reader:
                 to_back = code == XFER_FB
                 front_slider = l13 == (FROM_SLIDERS if to_back else TO_SLIDERS)
                 back_slider = l13 == (TO_SLIDERS if to_back else FROM_SLIDERS)
-                f, b = nd("fs" if front_slider else "f", s), nd("bs" if back_slider else "b", s - fl)
-                ops.append(Op("xfer", needle=f, needle2=b) if to_back
-                           else Op("xfer", needle=b, needle2=f))
+                f, b = (
+                    nd("fs" if front_slider else "f", s),
+                    nd("bs" if back_slider else "b", s - fl),
+                )
+                ops.append(
+                    Op("xfer", needle=f, needle2=b) if to_back else Op("xfer", needle=b, needle2=f)
+                )
             elif code in (SPLIT_FB, SPLIT_BF):
                 if not cs or not d:
-                    raise self.fail(f"split colour {code} in a row without carriers or "
-                                    "direction", s)
+                    raise self.fail(
+                        f"split colour {code} in a row without carriers or direction", s
+                    )
                 f, b = nd("f", s), nd("b", s - fl)
                 a, t = (f, b) if code == SPLIT_FB else (b, f)
                 ops.append(Op("split", d, a, t, cs))
             elif code in _SVS:
                 if not cs or not d:
-                    raise self.fail(f"split colour {code} in a row without carriers or "
-                                    "direction", s)
+                    raise self.fail(
+                        f"split colour {code} in a row without carriers or direction", s
+                    )
                 from_front, delta = _SVS[code]
                 ret = r + delta
                 if ret_racking is not None and ret != ret_racking:
-                    raise self.fail("splits via sliders with different return rackings in "
-                                    "one row", s)
+                    raise self.fail(
+                        "splits via sliders with different return rackings in one row", s
+                    )
                 ret_racking = ret
                 if from_front:  # f(s) -> bs(s - R), back at the return racking to f(. + ret)
                     src, slider = nd("f", s), nd("bs", s - fl)
@@ -380,8 +403,9 @@ def _placement(image: DatImage) -> tuple[str, int | None]:
     return "Center", (None if width == DEFAULT_WIDTH else width)
 
 
-def dat_to_program(image: DatImage, *, explicit_kicks: bool = False,
-                   machine: Machine | None = None) -> MachineProgram:
+def dat_to_program(
+    image: DatImage, *, explicit_kicks: bool = False, machine: Machine | None = None
+) -> MachineProgram:
     """The program of a DAT image (module docstring), on `machine` (default: knitc's
     SWG091N2 profile). Raises DatReadError for a row no program would produce."""
     r = _Reader(image, explicit_kicks)

@@ -67,8 +67,14 @@ from knitc.backends.dat import (
 )
 from knitc.codegen.machine import MachineProgram, Needle
 
-__all__ = ["DEFAULT_WIDTH", "DatWriteError", "STITCH_TABLE", "carrier_code", "stitch_number",
-           "to_dat"]
+__all__ = [
+    "DEFAULT_WIDTH",
+    "DatWriteError",
+    "STITCH_TABLE",
+    "carrier_code",
+    "stitch_number",
+    "to_dat",
+]
 
 DEFAULT_WIDTH = 540
 """Bed width in needles when the program has no ``;;Width:`` (the converter's default)."""
@@ -83,10 +89,26 @@ MAX_CARRIER = 10
 """A Shima DAT names carriers 1..10."""
 
 STITCH_TABLE: dict[tuple[int, int], int] = {
-    (-10, 10): 81, (0, 10): 82, (10, 10): 83, (5, 15): 84, (10, 15): 85, (15, 15): 86,
-    (10, 20): 87, (15, 20): 88, (20, 20): 89, (15, 25): 90, (20, 25): 91, (25, 25): 92,
-    (25, 30): 93, (25, 35): 94, (25, 40): 95, (25, 45): 96, (25, 50): 97, (25, 55): 98,
-    (25, 60): 99, (25, 65): 100,
+    (-10, 10): 81,
+    (0, 10): 82,
+    (10, 10): 83,
+    (5, 15): 84,
+    (10, 15): 85,
+    (15, 15): 86,
+    (10, 20): 87,
+    (15, 20): 88,
+    (20, 20): 89,
+    (15, 25): 90,
+    (20, 25): 91,
+    (25, 25): 92,
+    (25, 30): 93,
+    (25, 35): 94,
+    (25, 40): 95,
+    (25, 45): 96,
+    (25, 50): 97,
+    (25, 55): 98,
+    (25, 60): 99,
+    (25, 65): 100,
 }
 """Knitout ``stitch L T`` -> machine stitch number, keyed (L, T) = (leading, stitch): the
 converter's fixed table (research §2.6.7); ``stitch 10 15`` is stitch number 85."""
@@ -169,16 +191,42 @@ _COMBINE: dict[tuple[int, int], int] = {
     (KNIT_F, KNIT_B): KNIT_FB,
 }
 """Front op then back op in one column (rightward order), at quarter pitch only."""
-_FRONT = frozenset({TUCK_F, KNIT_F, KNIT_FB, KNIT_F_TUCK_B, TUCK_F_KNIT_B, TUCK_FB,
-                    TUCK_F + _TERMINAL, KNIT_F + _TERMINAL})
-_BACK = frozenset({TUCK_B, KNIT_B, KNIT_FB, KNIT_F_TUCK_B, TUCK_F_KNIT_B, TUCK_FB,
-                   TUCK_B + _TERMINAL, KNIT_B + _TERMINAL})
+_FRONT = frozenset(
+    {
+        TUCK_F,
+        KNIT_F,
+        KNIT_FB,
+        KNIT_F_TUCK_B,
+        TUCK_F_KNIT_B,
+        TUCK_FB,
+        TUCK_F + _TERMINAL,
+        KNIT_F + _TERMINAL,
+    }
+)
+_BACK = frozenset(
+    {
+        TUCK_B,
+        KNIT_B,
+        KNIT_FB,
+        KNIT_F_TUCK_B,
+        TUCK_F_KNIT_B,
+        TUCK_FB,
+        TUCK_B + _TERMINAL,
+        KNIT_B + _TERMINAL,
+    }
+)
 """Slot contents that use a front / back hook (misses and transfers use neither): a pass
 with the presser on may not mix them."""
 
 # Split-via-sliders colours by (return racking - split racking): (front op, back op).
-_SVS_CODES: dict[float, tuple[int, int]] = {1: (107, 108), 2: (127, 128), 4: (147, 148),
-                                             -1: (106, 109), -2: (126, 129), -4: (146, 149)}
+_SVS_CODES: dict[float, tuple[int, int]] = {
+    1: (107, 108),
+    2: (127, 128),
+    4: (147, 148),
+    -1: (106, 109),
+    -2: (126, 129),
+    -4: (146, 149),
+}
 
 
 def _combine(a: int, b: int, quarter: bool) -> int | None:
@@ -195,12 +243,42 @@ def _combine(a: int, b: int, quarter: bool) -> int | None:
 class _Pass:
     """One pass under construction: the converter's pass record plus running slot bounds."""
 
-    __slots__ = ("type", "racking", "stitch", "speed", "dir", "carriers", "presser", "hook",
-                 "gripper", "pause", "slots", "lo", "hi", "front", "back", "ret", "op")
+    __slots__ = (
+        "type",
+        "racking",
+        "stitch",
+        "speed",
+        "dir",
+        "carriers",
+        "presser",
+        "hook",
+        "gripper",
+        "pause",
+        "slots",
+        "lo",
+        "hi",
+        "front",
+        "back",
+        "ret",
+        "op",
+    )
 
-    def __init__(self, typ: int, racking: float, stitch: int, speed: int, d: int,
-                 carriers: tuple[int, ...], presser: str | None, hook: int, gripper: int,
-                 pause: bool, slot: int, code: int, op: int) -> None:
+    def __init__(
+        self,
+        typ: int,
+        racking: float,
+        stitch: int,
+        speed: int,
+        d: int,
+        carriers: tuple[int, ...],
+        presser: str | None,
+        hook: int,
+        gripper: int,
+        pause: bool,
+        slot: int,
+        code: int,
+        op: int,
+    ) -> None:
         self.type = typ
         self.racking = racking
         self.stitch = stitch
@@ -296,28 +374,48 @@ class _Writer:
         if cs in self.good_sets:
             return
         if len(cs) > 2:
-            raise self.fail(f"{what} uses {len(cs)} carriers {list(cs)}; a Shima pass carries "
-                            "at most 2")
+            raise self.fail(
+                f"{what} uses {len(cs)} carriers {list(cs)}; a Shima pass carries at most 2"
+            )
         if len(cs) == 2 and cs[0] == cs[1]:
             raise self.fail(f"{what} lists carrier {cs[0]} twice")
         for c in cs:
             if not (isinstance(c, int) and 1 <= c <= MAX_CARRIER):
-                raise self.fail(f"{what} uses carrier {c!r}; a Shima DAT has carriers "
-                                f"1..{MAX_CARRIER}")
+                raise self.fail(
+                    f"{what} uses carrier {c!r}; a Shima DAT has carriers 1..{MAX_CARRIER}"
+                )
         self.good_sets.add(cs)
 
     def no_svs(self, what: str) -> None:
         if self.svs is not None:
-            raise self.fail(f"cannot {what} while splits via sliders wait for their return "
-                            "transfers")
+            raise self.fail(
+                f"cannot {what} while splits via sliders wait for their return transfers"
+            )
 
     # -- merging (research §2.6.3, §2.6.4) ------------------------------------------------------
 
-    def append(self, p: _Pass, typ: int, d: int, cs: tuple[int, ...], stitch: int, slot: int,
-               code: int, presser: str | None, hook: int, gripper: int) -> bool:
+    def append(
+        self,
+        p: _Pass,
+        typ: int,
+        d: int,
+        cs: tuple[int, ...],
+        stitch: int,
+        slot: int,
+        code: int,
+        presser: str | None,
+        hook: int,
+        gripper: int,
+    ) -> bool:
         """Add a one-slot record to pass `p` if the converter would; say whether it did."""
-        if (p.type != typ or p.racking != self.racking or p.stitch != stitch
-                or p.speed != self.speed or p.dir != d or p.carriers != cs):
+        if (
+            p.type != typ
+            or p.racking != self.racking
+            or p.stitch != stitch
+            or p.speed != self.speed
+            or p.dir != d
+            or p.carriers != cs
+        ):
             return False
         if presser is not None and p.presser is not None and presser != p.presser:
             return False
@@ -376,25 +474,53 @@ class _Writer:
             p.back = True
         return True
 
-    def new_pass(self, typ: int, d: int, cs: tuple[int, ...], stitch: int, slot: int,
-                 code: int, presser: str | None, hook: int, gripper: int, pause: bool) -> None:
+    def new_pass(
+        self,
+        typ: int,
+        d: int,
+        cs: tuple[int, ...],
+        stitch: int,
+        slot: int,
+        code: int,
+        presser: str | None,
+        hook: int,
+        gripper: int,
+        pause: bool,
+    ) -> None:
         r = self.racking
         if abs(r) > self.limit:
             raise self.fail(f"racking {r:g} is beyond the machine's limit of {self.limit}")
-        self.passes.append(_Pass(typ, r, stitch, self.speed, d, cs, presser, hook, gripper,
-                                 pause, slot, code, self.i))
+        self.passes.append(
+            _Pass(
+                typ, r, stitch, self.speed, d, cs, presser, hook, gripper, pause, slot, code, self.i
+            )
+        )
 
-    def merge(self, typ: int, d: int, cs: tuple[int, ...], stitch: int, slot: int, code: int,
-              presser: str | None = None, hook: int = 0, gripper: int = 0,
-              pause: bool = False) -> None:
+    def merge(
+        self,
+        typ: int,
+        d: int,
+        cs: tuple[int, ...],
+        stitch: int,
+        slot: int,
+        code: int,
+        presser: str | None = None,
+        hook: int = 0,
+        gripper: int = 0,
+        pause: bool = False,
+    ) -> None:
         """Add a one-slot record: to the previous pass if it fits, else as a new pass after
         kicking its carriers to the side it starts from. A pending pause goes on the first new
         pass (a kick, possibly)."""
         do_pause = self.pause_pending
         self.pause_pending = False
         passes = self.passes
-        if passes and not do_pause and not pause and self.append(
-                passes[-1], typ, d, cs, stitch, slot, code, presser, hook, gripper):
+        if (
+            passes
+            and not do_pause
+            and not pause
+            and self.append(passes[-1], typ, d, cs, stitch, slot, code, presser, hook, gripper)
+        ):
             return
         kicks: dict[int, list[int]] | None = None
         for c in cs:
@@ -422,8 +548,7 @@ class _Writer:
                 kicks = {}
             kicks.setdefault(target, []).append(c)
         if kicks is None:
-            self.new_pass(typ, d, cs, stitch, slot, code, presser, hook, gripper,
-                          pause or do_pause)
+            self.new_pass(typ, d, cs, stitch, slot, code, presser, hook, gripper, pause or do_pause)
             return
         for target in _js_key_order(list(kicks)):
             group = tuple(kicks[target])
@@ -476,13 +601,16 @@ class _Writer:
             return 0, 0
         kind, in_cs = pending
         if in_cs != cs:
-            raise self.fail(f"the first use of carriers {list(cs)} must name exactly the "
-                            f"carriers brought in together ({kind} {' '.join(map(str, in_cs))})")
+            raise self.fail(
+                f"the first use of carriers {list(cs)} must name exactly the "
+                f"carriers brought in together ({kind} {' '.join(map(str, in_cs))})"
+            )
         if kind == "in":
             return 0, GRIP_IN
         if self.hook is not None:
-            raise self.fail(f"cannot bring in carriers {list(cs)} with the hook: it holds "
-                            f"{list(self.hook[1])}")
+            raise self.fail(
+                f"cannot bring in carriers {list(cs)} with the hook: it holds {list(self.hook[1])}"
+            )
         self.hook = (d, cs)
         return HOOK_IN, GRIP_IN
 
@@ -516,8 +644,10 @@ class _Writer:
                 lead, tight = cast("tuple[float, float]", op.value)
                 number = stitch_number(lead, tight)
                 if number is None:
-                    raise self.fail(f"stitch {lead:g} {tight:g} is not in the machine's stitch "
-                                    "table (integer leading/stitch pairs such as 10 15)")
+                    raise self.fail(
+                        f"stitch {lead:g} {tight:g} is not in the machine's stitch "
+                        "table (integer leading/stitch pairs such as 10 15)"
+                    )
                 self.stitch = number
             elif k == "stitch_number":
                 self.no_svs("change the stitch number")
@@ -538,8 +668,10 @@ class _Writer:
         self.i = -1
         for c in self.order:
             car = self.carriers[c]
-            raise DatWriteError(f"carrier {c} is still in action at the end; take it out "
-                                "with out or outhook", car.op)
+            raise DatWriteError(
+                f"carrier {c} is still in action at the end; take it out with out or outhook",
+                car.op,
+            )
 
     def setting(self, value: object, top: int, what: str) -> int:
         if isinstance(value, float) and value.is_integer():
@@ -551,12 +683,16 @@ class _Writer:
         return value
 
     def rack(self, value: object) -> None:
-        if isinstance(value, bool) or not isinstance(value, int | float) \
-                or not math.isfinite(value):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not math.isfinite(value)
+        ):
             raise self.fail(f"racking {value!r} is not a number")
         if value - math.floor(value) not in (0, 0.25):
-            raise self.fail(f"racking {value:g} is neither an integer nor an integer + 0.25 "
-                            "(quarter pitch)")
+            raise self.fail(
+                f"racking {value:g} is neither an integer nor an integer + 0.25 (quarter pitch)"
+            )
         self.racking = value
         self.fl = math.floor(value)
 
@@ -579,8 +715,10 @@ class _Writer:
             raise self.fail(f"releasehook {' '.join(map(str, cs))}: the hook holds no yarn")
         d, held = self.hook
         if held != cs:
-            raise self.fail(f"releasehook {' '.join(map(str, cs))}: the hook holds carriers "
-                            f"{' '.join(map(str, held))}")
+            raise self.fail(
+                f"releasehook {' '.join(map(str, cs))}: the hook holds carriers "
+                f"{' '.join(map(str, held))}"
+            )
         for c in cs:
             self.carriers[c].used_hook = False
         first = self.carriers[cs[0]].last
@@ -606,17 +744,28 @@ class _Writer:
             if car.last is None:
                 raise self.fail(f"cannot take out carrier {c}: it has not made a stitch yet")
             if kind == "out" and car.used_hook:
-                raise self.fail(f"cannot take out carrier {c} with out: the hook still holds "
-                                "it (releasehook first)")
+                raise self.fail(
+                    f"cannot take out carrier {c} with out: the hook still holds "
+                    "it (releasehook first)"
+                )
             s = self.slot(car.last)
             if at is None or s > at:
                 at = s
         if kind == "outhook" and self.hook is not None:
-            raise self.fail(f"cannot outhook carriers {list(cs)}: the hook holds "
-                            f"{list(self.hook[1])}")
+            raise self.fail(
+                f"cannot outhook carriers {list(cs)}: the hook holds {list(self.hook[1])}"
+            )
         assert at is not None
-        self.merge(T_KNIT, 1, cs, self.stitch, at, SOFT_MISS,
-                   hook=HOOK_OUT if kind == "outhook" else 0, gripper=GRIP_OUT)
+        self.merge(
+            T_KNIT,
+            1,
+            cs,
+            self.stitch,
+            at,
+            SOFT_MISS,
+            hook=HOOK_OUT if kind == "outhook" else 0,
+            gripper=GRIP_OUT,
+        )
         for c in cs:
             del self.carriers[c]
         self.order = sorted(self.carriers)
@@ -627,8 +776,9 @@ class _Writer:
             raise self.fail(f"{kind} without a needle")
         if kind in ("drop", "amiss"):
             if cs:
-                raise self.fail(f"{kind} takes no carriers (use "
-                                f"{'knit' if kind == 'drop' else 'tuck'})")
+                raise self.fail(
+                    f"{kind} takes no carriers (use {'knit' if kind == 'drop' else 'tuck'})"
+                )
             kind = "knit" if kind == "drop" else "tuck"
         if cs:
             self.check_carriers(cs, kind)
@@ -643,8 +793,9 @@ class _Writer:
             code = MISS_F if front else MISS_B
         else:
             if n.bed in ("fs", "bs"):
-                raise self.fail(f"cannot {'knit' if kind == 'knit' else 'tuck'} on slider "
-                                f"needle {n}")
+                raise self.fail(
+                    f"cannot {'knit' if kind == 'knit' else 'tuck'} on slider needle {n}"
+                )
             self.kick_others(n, cs)
             if kind == "knit":
                 code = KNIT_F if front else KNIT_B
@@ -658,8 +809,9 @@ class _Writer:
         if cs:
             self.set_last(cs, d, n)
 
-    def split_op(self, kind: str, d: int, n: Needle | None, t: Needle | None,
-                 cs: tuple[int, ...]) -> None:
+    def split_op(
+        self, kind: str, d: int, n: Needle | None, t: Needle | None, cs: tuple[int, ...]
+    ) -> None:
         if n is None or t is None:
             raise self.fail(f"{kind} needs two needles")
         if kind == "xfer" and cs:
@@ -697,11 +849,11 @@ class _Writer:
             if svs is None:
                 svs = self.svs = _SplitViaSliders(r)
             if svs.ret is not None:
-                raise self.fail(f"split {n} {t}: cannot split to sliders while returning "
-                                "from them")
+                raise self.fail(f"split {n} {t}: cannot split to sliders while returning from them")
             if svs.racking != r:
-                raise self.fail(f"split {n} {t}: splits via sliders must all be at racking "
-                                f"{svs.racking:g}")
+                raise self.fail(
+                    f"split {n} {t}: splits via sliders must all be at racking {svs.racking:g}"
+                )
             if t in svs.needles:
                 raise self.fail(f"split {n} {t}: slider {t} already holds a split loop")
             svs.needles.add(t)
@@ -712,8 +864,7 @@ class _Writer:
         hook = gripper = 0
         if cs:
             hook, gripper = self.take_in(cs, d)
-        self.merge(typ, d, cs, self.stitch if cs else 0, self.slot(n), code, None, hook,
-                   gripper)
+        self.merge(typ, d, cs, self.stitch if cs else 0, self.slot(n), code, None, hook, gripper)
         for car in self.carriers.values():
             if car.last == n:
                 car.last = t
@@ -729,8 +880,9 @@ class _Writer:
             svs.ret = self.racking
             self.passes[-1].ret = self.racking
         if svs.ret != self.racking:
-            raise self.fail(f"xfer from {n}: returns from sliders must all be at racking "
-                            f"{svs.ret:g}")
+            raise self.fail(
+                f"xfer from {n}: returns from sliders must all be at racking {svs.ret:g}"
+            )
         if n not in svs.needles:
             raise self.fail(f"xfer from {n}: no split-via-sliders loop waits there")
         svs.needles.discard(n)
@@ -747,12 +899,15 @@ class _Writer:
         hi = max(p.hi for p in passes)
         used = hi - lo + 1
         if used + 110 > MAX_SIDE or len(passes) + 19 > MAX_SIDE:
-            raise DatWriteError(f"the DAT raster would be {used + 110} x {len(passes) + 19}; "
-                                f"each side must stay below {MAX_SIDE + 1}")
+            raise DatWriteError(
+                f"the DAT raster would be {used + 110} x {len(passes) + 19}; "
+                f"each side must stay below {MAX_SIDE + 1}"
+            )
         needles = self.prog.machine.needles
         if used > needles:
-            raise DatWriteError(f"the design spans {used} needles (slots {lo}..{hi}); the "
-                                f"machine has {needles}")
+            raise DatWriteError(
+                f"the design spans {used} needles (slots {lo}..{hi}); the machine has {needles}"
+            )
         out: list[DatPass] = []
         carriage = 1  # after the fixed start courses the carriage is on the right
         hook_active = False
@@ -762,9 +917,12 @@ class _Writer:
                 codes = None if p.ret is None else _SVS_CODES.get(p.ret - p.racking)
                 if codes is None:
                     ret = "no return" if p.ret is None else f"return racking {p.ret:g}"
-                    raise DatWriteError(f"splits via sliders at racking {p.racking:g} with "
-                                        f"{ret} have no DAT colour (the return racking must "
-                                        "differ by 1, 2 or 4)", p.op)
+                    raise DatWriteError(
+                        f"splits via sliders at racking {p.racking:g} with "
+                        f"{ret} have no DAT colour (the return racking must "
+                        "differ by 1, 2 or 4)",
+                        p.op,
+                    )
                 slots = {s: codes[0] if c == SPLIT_FB else codes[1] for s, c in slots.items()}
             elif any(c >= _TERMINAL for c in slots.values()):
                 slots = {s: c % _TERMINAL for s, c in slots.items()}
@@ -789,8 +947,9 @@ class _Writer:
                 right[9] = 100 + right[2]
             if p.pause:
                 left[6] = 20
-            if p.presser == "on" or (p.presser == "auto" and not hook_active and not p.hook
-                                     and not (p.front and p.back)):
+            if p.presser == "on" or (
+                p.presser == "auto" and not hook_active and not p.hook and not (p.front and p.back)
+            ):
                 right[10] = 101
             if p.hook == HOOK_IN:
                 right[14] = 10
@@ -819,17 +978,27 @@ class _Writer:
                 right[4] = 2  # carriage move: the carriage starts from the other side
             if d:
                 carriage = d
-            out.append(DatPass(direction=RIGHT if d > 0 else LEFT if d < 0 else NONE,
-                               slots=slots, left=left, right=right))
+            out.append(
+                DatPass(
+                    direction=RIGHT if d > 0 else LEFT if d < 0 else NONE,
+                    slots=slots,
+                    left=left,
+                    right=right,
+                )
+            )
         if position == "Center":
             code = math.floor((width - used) / 2 + 0.5)  # JavaScript's Math.round
             if code < 0:
-                raise DatWriteError(f"the design spans {used} needles, wider than the bed "
-                                    f"({width}); it cannot be centred")
+                raise DatWriteError(
+                    f"the design spans {used} needles, wider than the bed "
+                    f"({width}); it cannot be centred"
+                )
         elif position == "Keep":
             if not (lo > 0 and hi <= width):
-                raise DatWriteError(f"cannot use position Keep: slots {lo}..{hi} are outside "
-                                    f"the bed's needles 1..{width}")
+                raise DatWriteError(
+                    f"cannot use position Keep: slots {lo}..{hi} are outside "
+                    f"the bed's needles 1..{width}"
+                )
             code = lo
         elif position == "Left":
             code = 1
@@ -838,14 +1007,17 @@ class _Writer:
         else:
             raise DatWriteError(f"position {position!r} is not Left, Center, Right or Keep")
         if code // 100 > 255:
-            raise DatWriteError(f"position code {code} does not fit the DAT (bed width "
-                                f"{width} is too large)")
-        return DatImage(passes=out, min_slot=lo, max_slot=hi, position=code,
-                        carriage_left_at_end=carriage < 0)
+            raise DatWriteError(
+                f"position code {code} does not fit the DAT (bed width {width} is too large)"
+            )
+        return DatImage(
+            passes=out, min_slot=lo, max_slot=hi, position=code, carriage_left_at_end=carriage < 0
+        )
 
 
-def to_dat(prog: MachineProgram, *, width: int | None = None,
-           position: str | None = None) -> DatImage:
+def to_dat(
+    prog: MachineProgram, *, width: int | None = None, position: str | None = None
+) -> DatImage:
     """The DAT passes of a program, grouped and optioned as the CMU converter does.
 
     `width` is the bed width in needles used to place a ``Center`` or ``Keep`` design (default:

@@ -51,8 +51,9 @@ def source_comment(op: Op) -> str:
     return f" ;!source:{_one_line(str(op.span))}"
 
 
-def op_lines(op: Op, *, source_comments: bool = True, one_carrier_per_line: bool = True
-             ) -> list[str]:
+def op_lines(
+    op: Op, *, source_comments: bool = True, one_carrier_per_line: bool = True
+) -> list[str]:
     """The Knitout line(s) of one op."""
     tail = source_comment(op) if source_comments else ""
     if op.kind == "comment":
@@ -66,21 +67,28 @@ def op_lines(op: Op, *, source_comments: bool = True, one_carrier_per_line: bool
     return [str(op) + tail]
 
 
-def knitout_lines(prog: MachineProgram, *, source_comments: bool = True,
-                  one_carrier_per_line: bool = True) -> list[tuple[str, int]]:
+def knitout_lines(
+    prog: MachineProgram, *, source_comments: bool = True, one_carrier_per_line: bool = True
+) -> list[tuple[str, int]]:
     """Every line of the Knitout text with the index of the op it came from (-1: header)."""
     out = [(line, -1) for line in header_lines(prog)]
     for i, op in enumerate(prog.ops):
-        out += [(line, i) for line in op_lines(op, source_comments=source_comments,
-                                               one_carrier_per_line=one_carrier_per_line)]
+        out += [
+            (line, i)
+            for line in op_lines(
+                op, source_comments=source_comments, one_carrier_per_line=one_carrier_per_line
+            )
+        ]
     return out
 
 
-def write_knitout(prog: MachineProgram, *, source_comments: bool = True,
-                  one_carrier_per_line: bool = True) -> str:
+def write_knitout(
+    prog: MachineProgram, *, source_comments: bool = True, one_carrier_per_line: bool = True
+) -> str:
     """The Knitout text of `prog` (LF line ends, a final newline)."""
-    lines = knitout_lines(prog, source_comments=source_comments,
-                          one_carrier_per_line=one_carrier_per_line)
+    lines = knitout_lines(
+        prog, source_comments=source_comments, one_carrier_per_line=one_carrier_per_line
+    )
     return "\n".join(line for line, _ in lines) + "\n"
 
 
@@ -93,8 +101,11 @@ def op_of_line(prog: MachineProgram, line: int, **options: bool) -> int:
 
 # ---- reading back ---------------------------------------------------------------------------
 
-_OPCODE_KIND = {"x-stitch-number": "stitch_number", "x-speed-number": "speed",
-                "x-presser-mode": "presser"}
+_OPCODE_KIND = {
+    "x-stitch-number": "stitch_number",
+    "x-speed-number": "speed",
+    "x-presser-mode": "presser",
+}
 
 
 def _number(text: str) -> float | int:
@@ -130,8 +141,7 @@ def read_knitout(text: str) -> MachineProgram:
                 cs = args[3:] if op == "split" else args[2:]
                 prog.emit(Op(op, d, Needle.parse(args[1]), n2, tuple(map(int, cs))))
             elif op == "xfer":
-                prog.emit(Op("xfer", needle=Needle.parse(args[0]),
-                             needle2=Needle.parse(args[1])))
+                prog.emit(Op("xfer", needle=Needle.parse(args[0]), needle2=Needle.parse(args[1])))
             elif op in ("drop", "amiss"):
                 prog.emit(Op(op, needle=Needle.parse(args[0])))
             elif op == "rack":

@@ -86,11 +86,20 @@ _TOKEN = re.compile(r"[^ \t\r\f\v]+")
 
 # ---- errors -----------------------------------------------------------------------------------
 
+
 class KnitoutError(ValueError):
     """One problem in a Knitout text, at 1-based `line` and `col` (..`end_col`, exclusive)."""
 
-    def __init__(self, message: str, line: int, col: int = 1, *, end_col: int | None = None,
-                 code: str = "E912", warning: bool = False) -> None:
+    def __init__(
+        self,
+        message: str,
+        line: int,
+        col: int = 1,
+        *,
+        end_col: int | None = None,
+        code: str = "E912",
+        warning: bool = False,
+    ) -> None:
         super().__init__(f"{line}:{col}: {message}")
         self.message = message
         self.line = line
@@ -106,8 +115,9 @@ class KnitoutError(ValueError):
 class KnitoutErrors(ValueError):
     """Every error found in a Knitout text (in line order), and the reader's warnings."""
 
-    def __init__(self, errors: Iterable[KnitoutError],
-                 warnings: Iterable[KnitoutError] = ()) -> None:
+    def __init__(
+        self, errors: Iterable[KnitoutError], warnings: Iterable[KnitoutError] = ()
+    ) -> None:
         errors = list(errors)
         first = errors[0] if errors else None
         more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
@@ -116,8 +126,9 @@ class KnitoutErrors(ValueError):
         self.warnings = list(warnings)
 
 
-def knitout_diagnostics(path: str, text: str, errors: Iterable[KnitoutError] = (),
-                        warnings: Iterable[KnitoutError] = ()) -> Diagnostics:
+def knitout_diagnostics(
+    path: str, text: str, errors: Iterable[KnitoutError] = (), warnings: Iterable[KnitoutError] = ()
+) -> Diagnostics:
     """The errors and warnings as compiler diagnostics on `path` (source attached, so the
     renderer shows the line and a caret)."""
     diags = Diagnostics()
@@ -131,6 +142,7 @@ def knitout_diagnostics(path: str, text: str, errors: Iterable[KnitoutError] = (
 
 # ---- the reader -------------------------------------------------------------------------------
 
+
 def _number(text: str) -> int | float | None:
     """A Knitout number (``2``, ``-0.75``, ``.25``) or None; ints when integral."""
     if _NUMBER.match(text) is None:
@@ -141,10 +153,18 @@ def _number(text: str) -> int | float | None:
 
 _DIRS = {"+": 1, "-": -1}
 _ARITY_HINT = {
-    "knit": "knit D N CS", "tuck": "tuck D N CS", "miss": "miss D N CS",
-    "split": "split D N N2 CS", "xfer": "xfer N N2", "drop": "drop N", "amiss": "amiss N",
-    "rack": "rack R", "stitch": "stitch L T", "x-stitch-number": "x-stitch-number K",
-    "x-speed-number": "x-speed-number K", "x-presser-mode": "x-presser-mode on|off|auto",
+    "knit": "knit D N CS",
+    "tuck": "tuck D N CS",
+    "miss": "miss D N CS",
+    "split": "split D N N2 CS",
+    "xfer": "xfer N N2",
+    "drop": "drop N",
+    "amiss": "amiss N",
+    "rack": "rack R",
+    "stitch": "stitch L T",
+    "x-stitch-number": "x-stitch-number K",
+    "x-speed-number": "x-speed-number K",
+    "x-presser-mode": "x-presser-mode on|off|auto",
     "pause": "pause",
 }
 _CARRIER_OPS = ("in", "inhook", "releasehook", "out", "outhook")
@@ -213,8 +233,7 @@ class _Reader:
             line = self.lineno
         else:
             c, end = 1, 2
-        self.warnings.append(KnitoutError(message, line, c, end_col=end, code="W910",
-                                          warning=True))
+        self.warnings.append(KnitoutError(message, line, c, end_col=end, code="W910", warning=True))
 
     # -- header -------------------------------------------------------------------------------
 
@@ -226,14 +245,16 @@ class _Reader:
         self.code = self.raw
         m = _MAGIC.match(self.raw)
         if m is None:
-            self.error(f"the first line must be the Knitout magic `;!knitout-2`, not "
-                       f"`{self.raw[:40]}`", code="E910")
+            self.error(
+                f"the first line must be the Knitout magic `;!knitout-2`, not `{self.raw[:40]}`",
+                code="E910",
+            )
         elif int(m.group(1)) > KNOWN_VERSION:
-            self.warn(f"Knitout version {m.group(1)} is newer than the {KNOWN_VERSION} "
-                      "this reader knows")
+            self.warn(
+                f"Knitout version {m.group(1)} is newer than the {KNOWN_VERSION} this reader knows"
+            )
         # without the magic, the first line is still read as what it looks like
-        i = 1 if m is not None or self.raw.startswith(";") and not self.raw.startswith(";;") \
-            else 0
+        i = 1 if m is not None or self.raw.startswith(";") and not self.raw.startswith(";;") else 0
         seen: set[str] = set()
         while i < len(lines):
             raw = lines[i]
@@ -247,8 +268,11 @@ class _Reader:
             self._header_line(h, name, value.strip())
             i += 1
         if h.carriers is None:
-            self.warn("no `;;Carriers:` header (the spec requires one); assuming carriers "
-                      "1 2 3 4 5 6 7 8 9 10", line=min(i + 1, max(len(lines), 1)))
+            self.warn(
+                "no `;;Carriers:` header (the spec requires one); assuming carriers "
+                "1 2 3 4 5 6 7 8 9 10",
+                line=min(i + 1, max(len(lines), 1)),
+            )
             h.carriers = [str(c) for c in range(1, 11)]
         return h, i
 
@@ -257,16 +281,19 @@ class _Reader:
             self.error(f"`;;{name}:` {msg}, not `{value}`", code="E910")
 
         if name == "Carriers":
-            names = [n for rail in value.split() for side in rail.split(";")
-                     for n in side.split(",")]
+            names = [
+                n for rail in value.split() for side in rail.split(";") for n in side.split(",")
+            ]
             if not names or any(not n for n in names):
                 return bad("needs carrier names separated by spaces")
             if len(set(names)) != len(names):
                 return bad("names a carrier twice")
             h.carriers = names
             if names != [str(k) for k in range(1, len(names) + 1)]:
-                self.warn("carriers are numbered by their place in the `;;Carriers:` header: "
-                          + ", ".join(f"{n} -> {k}" for k, n in enumerate(names, 1)))
+                self.warn(
+                    "carriers are numbered by their place in the `;;Carriers:` header: "
+                    + ", ".join(f"{n} -> {k}" for k, n in enumerate(names, 1))
+                )
         elif name == "Machine":
             h.machine = value or h.machine
         elif name == "Gauge":
@@ -297,8 +324,12 @@ class _Reader:
         if n is None:
             m = _NEEDLE.match(t)
             if m is None:
-                raise _Bad(f"`{t}` is not a needle (f, b, fs or bs followed by an integer, "
-                           "e.g. f12, b-3, fs0)", k, "E913")
+                raise _Bad(
+                    f"`{t}` is not a needle (f, b, fs or bs followed by an integer, "
+                    "e.g. f12, b-3, fs0)",
+                    k,
+                    "E913",
+                )
             n = self.needles[t] = Needle(m.group(1), int(m.group(2)))
         return n
 
@@ -311,8 +342,12 @@ class _Reader:
             for j, t in enumerate(key, k):
                 c = names.get(t)
                 if c is None:
-                    raise _Bad(f"carrier `{t}` is not declared in the `;;Carriers:` header "
-                               f"({' '.join(names)})", j, "E914")
+                    raise _Bad(
+                        f"carrier `{t}` is not declared in the `;;Carriers:` header "
+                        f"({' '.join(names)})",
+                        j,
+                        "E914",
+                    )
                 if c in out:
                     raise _Bad(f"carrier `{t}` is listed twice", j, "E914")
                 out.append(c)
@@ -334,29 +369,43 @@ class _Reader:
             if c not in active:
                 if c not in self.not_in:
                     self.not_in.add(c)
-                    self.error(f"carrier {tokens[first + j]} is used but is not in (bring it "
-                               "in with `in` or `inhook` first)", first + j, "E915")
+                    self.error(
+                        f"carrier {tokens[first + j]} is used but is not in (bring it "
+                        "in with `in` or `inhook` first)",
+                        first + j,
+                        "E915",
+                    )
                 continue
             active[c] = True
 
     def aligned(self, a: Needle, b: Needle, tokens: list[str], k: int) -> None:
         if a.is_front == b.is_front or (a.is_slider and b.is_slider):
             why = "a slider to a slider" if a.is_front != b.is_front else "the same bed"
-            raise _Bad(f"`{tokens[0]}` moves loops from {a} to {b}, on {why} (the target "
-                       "must be on the opposite bed)", k, "E916")
+            raise _Bad(
+                f"`{tokens[0]}` moves loops from {a} to {b}, on {why} (the target "
+                "must be on the opposite bed)",
+                k,
+                "E916",
+            )
         front, back = (a, b) if a.is_front else (b, a)
         if back.index + self.racking != front.index:
             r = self.racking
-            raise _Bad(f"{a} and {b} are not aligned at racking {_fmt(r)} (they face each "
-                       f"other at racking {front.index - back.index}; at racking R, b(k) "
-                       "faces f(k+R))", k, "E916")
+            raise _Bad(
+                f"{a} and {b} are not aligned at racking {_fmt(r)} (they face each "
+                f"other at racking {front.index - back.index}; at racking R, b(k) "
+                "faces f(k+R))",
+                k,
+                "E916",
+            )
 
     def arity(self, tokens: list[str], n: int) -> None:
         if len(tokens) != n:
             op = tokens[0]
-            raise _Bad(f"`{op}` takes {n - 1} argument{'s' * (n != 2)} "
-                       f"({_ARITY_HINT[op]}), got {len(tokens) - 1}",
-                       n if len(tokens) > n else -1)
+            raise _Bad(
+                f"`{op}` takes {n - 1} argument{'s' * (n != 2)} "
+                f"({_ARITY_HINT[op]}), got {len(tokens) - 1}",
+                n if len(tokens) > n else -1,
+            )
 
     def body(self, lines: list[str], start: int, crlf: list[bool] | None) -> None:
         """The instruction lines from `start` (`crlf`: which lines lost a CR, or None)."""
@@ -377,15 +426,26 @@ class _Reader:
             tokens = code.split()
             if not tokens:
                 if k >= 0 and comments and not code.strip():
-                    c = raw[k + 1:]
-                    ops.append(Op("comment", value=c[1:] if c.startswith(" ") else c,
-                                  span=Span(path, i + 1, k + 1, i + 1, len(raw) + 1,
-                                            line_start + k, line_start + len(raw))))
+                    c = raw[k + 1 :]
+                    ops.append(
+                        Op(
+                            "comment",
+                            value=c[1:] if c.startswith(" ") else c,
+                            span=Span(
+                                path,
+                                i + 1,
+                                k + 1,
+                                i + 1,
+                                len(raw) + 1,
+                                line_start + k,
+                                line_start + len(raw),
+                            ),
+                        )
+                    )
                 continue
             lead = len(code) - len(code.lstrip())
             end = len(code.rstrip())
-            span = Span(path, i + 1, lead + 1, i + 1, end + 1, line_start + lead,
-                        line_start + end)
+            span = Span(path, i + 1, lead + 1, i + 1, end + 1, line_start + lead, line_start + end)
             try:
                 op = self.instruction(tokens, span)
             except _Bad as bad:
@@ -413,8 +473,11 @@ class _Reader:
             cs = self.carriers(t, 3)
             if not cs:
                 if op == "miss":
-                    raise _Bad("`miss` needs carriers (it moves them without touching the "
-                               "needle)", -1, "E914")
+                    raise _Bad(
+                        "`miss` needs carriers (it moves them without touching the needle)",
+                        -1,
+                        "E914",
+                    )
                 return Op("drop" if op == "knit" else "amiss", needle=n, span=span)
             self.use(cs, t, 3)
             return Op(op, d, n, None, cs, span=span)
@@ -448,8 +511,10 @@ class _Reader:
             self.arity(t, 3)
             lead, tight = _number(t[1]), _number(t[2])
             if lead is None or tight is None:
-                raise _Bad(f"stitch values must be numbers, not `{t[1 if lead is None else 2]}`",
-                           1 if lead is None else 2)
+                raise _Bad(
+                    f"stitch values must be numbers, not `{t[1 if lead is None else 2]}`",
+                    1 if lead is None else 2,
+                )
             return Op("stitch", value=(lead, tight), span=span)
         if op == "x-stitch-number" or op == "x-speed-number":
             self.arity(t, 2)
@@ -485,11 +550,16 @@ class _Reader:
             elif op == "releasehook":
                 if c not in hook:
                     held = " ".join(self._name(h) for h in hook) or "nothing"
-                    raise _Bad(f"`releasehook` of carrier {name}, which the inserting hook "
-                               f"does not hold (it holds {held})", j, "E915")
+                    raise _Bad(
+                        f"`releasehook` of carrier {name}, which the inserting hook "
+                        f"does not hold (it holds {held})",
+                        j,
+                        "E915",
+                    )
                 if not active[c]:
-                    raise _Bad(f"`releasehook` of carrier {name} before it made a stitch",
-                               j, "E915")
+                    raise _Bad(
+                        f"`releasehook` of carrier {name} before it made a stitch", j, "E915"
+                    )
         if op in ("in", "inhook"):
             for c in cs:
                 active[c] = False
@@ -538,8 +608,13 @@ def gc_paused() -> Iterator[None]:
             gc.enable()
 
 
-def parse_knitout(text: str, path: str = "<knitout>", *, comments: bool = True,
-                  warnings: list[KnitoutError] | None = None) -> MachineProgram:
+def parse_knitout(
+    text: str,
+    path: str = "<knitout>",
+    *,
+    comments: bool = True,
+    warnings: list[KnitoutError] | None = None,
+) -> MachineProgram:
     """Read Knitout `text` (from file `path`, for spans) into a `MachineProgram`.
 
     Raises `KnitoutErrors` (every error, in line order, at most `MAX_ERRORS`) on invalid
@@ -554,8 +629,15 @@ def parse_knitout(text: str, path: str = "<knitout>", *, comments: bool = True,
         crlf = [line.endswith("\r") for line in lines]
         if any(crlf):
             lines = [line[:-1] if cr else line for line, cr in zip(lines, crlf, strict=True)]
-            r.warnings.append(KnitoutError("CRLF line ends (Knitout lines end with LF)",
-                                           crlf.index(True) + 1, 1, code="W910", warning=True))
+            r.warnings.append(
+                KnitoutError(
+                    "CRLF line ends (Knitout lines end with LF)",
+                    crlf.index(True) + 1,
+                    1,
+                    code="W910",
+                    warning=True,
+                )
+            )
         else:
             crlf = None
     h = _Header()
@@ -566,15 +648,24 @@ def parse_knitout(text: str, path: str = "<knitout>", *, comments: bool = True,
             r.names = {n: k for k, n in enumerate(h.carriers, 1)}
             r.body(lines, start, crlf)
         except _TooMany:
-            r.errors.append(KnitoutError(f"too many errors (stopped after {MAX_ERRORS})",
-                                         r.errors[-1].line, 1, code="E912"))
+            r.errors.append(
+                KnitoutError(
+                    f"too many errors (stopped after {MAX_ERRORS})",
+                    r.errors[-1].line,
+                    1,
+                    code="E912",
+                )
+            )
     if warnings is not None:
         warnings.extend(r.warnings)
     if r.errors:
         r.errors.sort(key=lambda e: (e.line, e.col))
         raise KnitoutErrors(r.errors, r.warnings)
-    machine = Machine(name=h.machine, gauge=h.gauge,  # type: ignore[arg-type]
-                      carriers=len(h.carriers or ()) or Machine().carriers)
+    machine = Machine(
+        name=h.machine,
+        gauge=h.gauge,  # type: ignore[arg-type]
+        carriers=len(h.carriers or ()) or Machine().carriers,
+    )
     prog = MachineProgram(machine, position=h.position, width=h.width)
     prog.extend(r.ops)
     return prog

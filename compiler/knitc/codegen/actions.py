@@ -70,6 +70,7 @@ from knitc.source import UNKNOWN_SPAN, Span
 
 # ---- running (code generation) ----------------------------------------------------------------
 
+
 @dataclass
 class UserAction(Action):
     """The steps of a stitch made by an action (not by its instruction)."""
@@ -124,8 +125,11 @@ def lower(gen, ctx, s: int, d: int, pos):
     run = _Stitch(gen, ctx, s, d, pos, prog)
     pre = [run.step("pre")] if "pre" in prog.steps else []
     main = [run.step("main")] if "main" in prog.steps else []
-    post = [run.step("post")] if "post" in prog.steps and (
-        prog.transfer_back or not keeps_loop(gen, s)) else []
+    post = (
+        [run.step("post")]
+        if "post" in prog.steps and (prog.transfer_back or not keeps_loop(gen, s))
+        else []
+    )
     return UserAction(s, pre=pre, main=main, post=post + [run.finish], program=prog)
 
 
@@ -149,8 +153,7 @@ def prepare_pass(gen, acts: list[Action]) -> list[list[Action]]:
     for a in acts:
         if int(g.action[a.stitch]) >= 0 and not isinstance(a, UserAction):
             _warn_increase(gen, a.stitch)
-    if not any(isinstance(a, UserAction) and a.program and a.program.split_by_side
-               for a in acts):
+    if not any(isinstance(a, UserAction) and a.program and a.program.split_by_side for a in acts):
         return [acts]
     parts: list[list[Action]] = []
     for a in acts:
@@ -172,10 +175,14 @@ def _warn_increase(gen, s: int) -> None:
     if key in gen.warned:
         return
     gen.warned.add(key)
-    gen.diags.warning("W720", f"some stitches selected here are increases: they are made by "
-                      f"the node's increase, not by action `{progs[a].name}`", span,
-                      hint="an increase forms its new loop itself (`increase: kickback` or "
-                           "`split`); leave the increases out of the selection")
+    gen.diags.warning(
+        "W720",
+        f"some stitches selected here are increases: they are made by "
+        f"the node's increase, not by action `{progs[a].name}`",
+        span,
+        hint="an increase forms its new loop itself (`increase: kickback` or "
+        "`split`); leave the increases out of the selection",
+    )
 
 
 def _origin(gen, s: int) -> Span | None:
@@ -185,6 +192,7 @@ def _origin(gen, s: int) -> Span | None:
 
 # ---- the interpreter: needles and stitch records as values ------------------------------------
 
+
 class _ActionInterp(Interpreter):
     def _Attr(self, e: ast.Attr) -> Value:
         obj = self.eval(e.obj)
@@ -193,9 +201,13 @@ class _ActionInterp(Interpreter):
             return Word("front" if obj.bed == "f" else "back") if name == "bed" else obj.index
         if isinstance(obj, StitchInfo) and name in StitchInfo.__dataclass_fields__:
             return getattr(obj, name)
-        what = ("a needle has `bed` and `index`" if isinstance(obj, Needle) else
-                "`stitch` has " + ", ".join(f"`{f}`" for f in StitchInfo.__dataclass_fields__)
-                if isinstance(obj, StitchInfo) else f"{type_name(obj)} has no fields")
+        what = (
+            "a needle has `bed` and `index`"
+            if isinstance(obj, Needle)
+            else "`stitch` has " + ", ".join(f"`{f}`" for f in StitchInfo.__dataclass_fields__)
+            if isinstance(obj, StitchInfo)
+            else f"{type_name(obj)} has no fields"
+        )
         raise EvalError("E303", f"no field `{name}` here: {what}", e.name.span)
 
     def _Binary(self, e: ast.Binary) -> Value:
@@ -218,9 +230,12 @@ def _needle_arith(e: ast.Binary, a: Value, b: Value) -> Value:
         return a.index - b.index
     k = whole(b) if isinstance(a, Needle) else whole(a) if e.op == "+" else None
     if k is None:
-        raise EvalError("E723", f"`{e.op}` moves a needle by a whole number of needles, got "
-                        f"{show(a)} {e.op} {show(b)}", e.span,
-                        "write `needle + 1` (one needle to the right) or `needle - 1`")
+        raise EvalError(
+            "E723",
+            f"`{e.op}` moves a needle by a whole number of needles, got {show(a)} {e.op} {show(b)}",
+            e.span,
+            "write `needle + 1` (one needle to the right) or `needle - 1`",
+        )
     n = a if isinstance(a, Needle) else b
     assert isinstance(n, Needle)
     return Needle(n.bed, n.index + (k if e.op == "+" else -k))
@@ -235,8 +250,12 @@ def _bind(name: str, params: tuple[str, ...], args: tuple, kwargs: dict) -> list
     vals = list(args) + [_UNSET] * (len(params) - len(args))
     for k, v in kwargs.items():
         if k not in params:
-            raise EvalError("E304", f"`{name}` has no argument `{k}`", UNKNOWN_SPAN,
-                            "its arguments: " + ", ".join(params))
+            raise EvalError(
+                "E304",
+                f"`{name}` has no argument `{k}`",
+                UNKNOWN_SPAN,
+                "its arguments: " + ", ".join(params),
+            )
         i = params.index(k)
         if vals[i] is not _UNSET:
             raise EvalError("E304", f"argument `{k}` of `{name}` is given twice", UNKNOWN_SPAN)
@@ -257,37 +276,53 @@ class _Stitch:
         self.plain = numbers.knit_half_gauge if half else numbers.knit
         self.failed = False
         bed = self.bed
-        self.cast_on: set[Pos] = {pos} if bed.loops.get(pos, 0) and not bed.at.get(pos) \
-            else set()
+        self.cast_on: set[Pos] = {pos} if bed.loops.get(pos, 0) and not bed.at.get(pos) else set()
         """Where the loops of no stitch that this stitch knits through are (a cast-on loop on
         its needle, followed through transfers)."""
         st = _State.of(gen)
         c = st.coords
         course = int(g.course[s])
-        info = StitchInfo(s, int(c.course[s]), int(c.wale[s]), int(c.course_end[s]),
-                          int(c.wale_end[s]), int(g.course_gauge[course]), int(g.node[s]))
+        info = StitchInfo(
+            s,
+            int(c.course[s]),
+            int(c.wale[s]),
+            int(c.course_end[s]),
+            int(c.wale_end[s]),
+            int(g.course_gauge[course]),
+            int(g.node[s]),
+        )
         other = "b" if pos[0] == "f" else "f"
         constants: dict[str, Any] = {  # Values and host objects (Needle, StitchInfo)
-            "needle": Needle(pos[0], pos[1]), "opposite": Needle(other, pos[1]), "dir": d,
-            "carriers": (ctx.carrier,), "position": int(st.visit[s] - st.first[course]),
-            "side": Word("back" if int(g.side[s]) else "front"), "stitch": info,
+            "needle": Needle(pos[0], pos[1]),
+            "opposite": Needle(other, pos[1]),
+            "dir": d,
+            "carriers": (ctx.carrier,),
+            "position": int(st.visit[s] - st.first[course]),
+            "side": Word("back" if int(g.side[s]) else "front"),
+            "stitch": info,
         }
 
         def host(fn: Callable, params: tuple[str, ...], lo: int) -> Host:
-            return Host(lambda *a, **kw: fn(*_bind(fn.__name__, params, a, kw)), lo,
-                        len(params))
+            return Host(lambda *a, **kw: fn(*_bind(fn.__name__, params, a, kw)), lo, len(params))
 
         loop = ("dir", "needle", "carriers")
         self.interp = _ActionInterp(
             functions={
-                "knit": host(self.knit, loop, 1), "tuck": host(self.tuck, loop, 1),
-                "miss": host(self.miss, loop, 1), "kickback": host(self.kickback, loop, 0),
+                "knit": host(self.knit, loop, 1),
+                "tuck": host(self.tuck, loop, 1),
+                "miss": host(self.miss, loop, 1),
+                "kickback": host(self.kickback, loop, 0),
                 "split": host(self.split, ("dir", "needle", "to", "carriers"), 2),
                 "xfer": host(self.xfer, ("source", "target"), 2),
-                "drop": host(self.drop, ("needle",), 1), "rack": host(self.rack, ("r",), 1),
+                "drop": host(self.drop, ("needle",), 1),
+                "rack": host(self.rack, ("r",), 1),
             },
-            constants=constants, words=ACTION_WORDS, param=self._param,
-            budget=STEP_BUDGET, what=f"action `{prog.name}`")
+            constants=constants,
+            words=ACTION_WORDS,
+            param=self._param,
+            budget=STEP_BUDGET,
+            what=f"action `{prog.name}`",
+        )
 
     # -- steps
     def step(self, part: str) -> Callable[[], None]:
@@ -300,6 +335,7 @@ class _Stitch:
                 self.interp.run(block)
             except EvalError as err:
                 self._fail(err)
+
         return run
 
     def finish(self) -> None:
@@ -332,10 +368,15 @@ class _Stitch:
         """A loop of the wale left away from the stitch's own: nothing would knit it off."""
         r = self.bed.where[self.s]
         if not self.failed:
-            self._fail(EvalError(
-                "E726", f"the old loop on {q[0]}{q[1]} is left apart from the stitch's new "
-                f"loop on {r[0]}{r[1]}: nothing would knit it off", self.prog.defn.name.span,
-                "bring it back in the post step, e.g. `xfer(opposite, needle)`"))
+            self._fail(
+                EvalError(
+                    "E726",
+                    f"the old loop on {q[0]}{q[1]} is left apart from the stitch's new "
+                    f"loop on {r[0]}{r[1]}: nothing would knit it off",
+                    self.prog.defn.name.span,
+                    "bring it back in the post step, e.g. `xfer(opposite, needle)`",
+                )
+            )
         self.bed.drop(q, x)  # the program is wrong anyway: no second error about its loops
 
     def _own(self) -> set[int]:
@@ -361,8 +402,13 @@ class _Stitch:
             gen.diags.add_source(std_source())
         origin = _origin(gen, self.s)
         notes = [Note("the stitch's pattern is written here", origin)] if origin else []
-        gen.diags.error(err.code, f"action `{self.prog.name}` at {self.pos[0]}{self.pos[1]}: "
-                        f"{err.message}", err.span, notes=notes, hint=err.hint)
+        gen.diags.error(
+            err.code,
+            f"action `{self.prog.name}` at {self.pos[0]}{self.pos[1]}: {err.message}",
+            err.span,
+            notes=notes,
+            hint=err.hint,
+        )
 
     def _param(self, name: str, span: Span) -> Value:
         if name in self.prog.params:
@@ -377,20 +423,28 @@ class _Stitch:
             return 1 if v.name == "right" else -1
         if not isinstance(v, bool) and v in (1, -1):
             return int(v)
-        raise EvalError("E723", f"a direction is 1, -1, `left` or `right`, got {_show(v)}",
-                        UNKNOWN_SPAN, "use `dir` (this course's direction) or `-dir`")
+        raise EvalError(
+            "E723",
+            f"a direction is 1, -1, `left` or `right`, got {_show(v)}",
+            UNKNOWN_SPAN,
+            "use `dir` (this course's direction) or `-dir`",
+        )
 
     def _needle(self, v: object, default: Pos | None = None) -> Pos:
         if v is _UNSET and default is not None:
             return default
         if not isinstance(v, Needle) or v.bed not in ("f", "b"):
-            raise EvalError("E723", f"expected a needle, got {_show(v)}", UNKNOWN_SPAN,
-                            "needles are `needle`, `opposite` and those reached from them, "
-                            "e.g. `needle + 1`")
+            raise EvalError(
+                "E723",
+                f"expected a needle, got {_show(v)}",
+                UNKNOWN_SPAN,
+                "needles are `needle`, `opposite` and those reached from them, e.g. `needle + 1`",
+            )
         n = self.bed.prog.machine.needles
         if not 0 <= v.index < n:
-            raise EvalError("E722", f"needle {v} is outside the machine (needles 0 to {n - 1})",
-                            UNKNOWN_SPAN)
+            raise EvalError(
+                "E722", f"needle {v} is outside the machine (needles 0 to {n - 1})", UNKNOWN_SPAN
+            )
         return v.bed, v.index
 
     def _carriers(self, v: object) -> None:
@@ -398,51 +452,70 @@ class _Stitch:
             return
         cs = v if isinstance(v, tuple) else (v,)
         if not cs or any(isinstance(c, bool) or whole(c) is None for c in cs):
-            raise EvalError("E723", f"carriers are a carrier number or a list of them, got "
-                            f"{_show(v)}", UNKNOWN_SPAN, "use `carriers`")
+            raise EvalError(
+                "E723",
+                f"carriers are a carrier number or a list of them, got {_show(v)}",
+                UNKNOWN_SPAN,
+                "use `carriers`",
+            )
         if {whole(c) for c in cs} != {self.ctx.carrier}:
-            raise EvalError("E725", f"only this course's carrier ({self.ctx.carrier}) can be used "
-                            f"here, got {_show(v)}", UNKNOWN_SPAN,
-                            "an action works with the yarn of its course (`carriers`); other "
-                            "yarns are not brought in for it")
+            raise EvalError(
+                "E725",
+                f"only this course's carrier ({self.ctx.carrier}) can be used here, got {_show(v)}",
+                UNKNOWN_SPAN,
+                "an action works with the yarn of its course (`carriers`); other "
+                "yarns are not brought in for it",
+            )
 
     def _mine(self, pos: Pos, what: str) -> None:
         """Refuse to touch loops that are not this stitch's wale's (nor its cast-on loop)."""
         bed = self.bed
         others = bed.at.get(pos, set()) - self._own()
-        foreign = bool(others) or (bed.loops.get(pos, 0) and not bed.at.get(pos)
-                                   and pos not in self.cast_on)
+        foreign = bool(others) or (
+            bed.loops.get(pos, 0) and not bed.at.get(pos) and pos not in self.cast_on
+        )
         if not foreign:
             return
         if others:
             x = min(others)
-            whose = f"the loop of stitch {x} (of `{self.gen.g.node_names[int(self.gen.g.node[x])]}`)"
-            hint = ("an action may only move and knit its own stitch's loops; on a tube, knit "
-                    "in half gauge (`gauge: half`) so that the facing needles are free")
+            whose = (
+                f"the loop of stitch {x} (of `{self.gen.g.node_names[int(self.gen.g.node[x])]}`)"
+            )
+            hint = (
+                "an action may only move and knit its own stitch's loops; on a tube, knit "
+                "in half gauge (`gauge: half`) so that the facing needles are free"
+            )
         else:
             whose = "a loop of no stitch (a cast-on loop, or a new yarn's catching tuck)"
-            hint = ("a new yarn's catching tucks stay until its first course is knitted; "
-                    "attach the action from the second course on, e.g. `courses(1:end)`")
-        raise EvalError("E720", f"{what} {pos[0]}{pos[1]}, which holds {whose}", UNKNOWN_SPAN,
-                        hint)
+            hint = (
+                "a new yarn's catching tucks stay until its first course is knitted; "
+                "attach the action from the second course on, e.g. `courses(1:end)`"
+            )
+        raise EvalError("E720", f"{what} {pos[0]}{pos[1]}, which holds {whose}", UNKNOWN_SPAN, hint)
 
     def _one_loop(self, pos: Pos) -> None:
         """A stitch makes one loop: a second one elsewhere would be lost to the loop model
         (and to the next course)."""
         q = self.bed.where.get(self.s)
         if q is not None and q != pos:
-            raise EvalError("E726", f"the stitch already has its new loop on {q[0]}{q[1]}; a "
-                            f"stitch makes one loop, not a second on {pos[0]}{pos[1]}",
-                            UNKNOWN_SPAN, "move the loop with `xfer` instead")
+            raise EvalError(
+                "E726",
+                f"the stitch already has its new loop on {q[0]}{q[1]}; a "
+                f"stitch makes one loop, not a second on {pos[0]}{pos[1]}",
+                UNKNOWN_SPAN,
+                "move the loop with `xfer` instead",
+            )
 
     def _rack(self, r: float) -> None:
         try:
             self.bed.set_rack(r)
         except Unsupported:
-            raise EvalError("E721", f"racking {show(r)} is beyond the machine's limit of "
-                            f"{self.bed.max_rack}", UNKNOWN_SPAN,
-                            "move loops by fewer needles, or raise `machine { racking: ... }`"
-                            ) from None
+            raise EvalError(
+                "E721",
+                f"racking {show(r)} is beyond the machine's limit of {self.bed.max_rack}",
+                UNKNOWN_SPAN,
+                "move loops by fewer needles, or raise `machine { racking: ... }`",
+            ) from None
 
     # -- the machine operations
     def knit(self, dir=_UNSET, needle=_UNSET, carriers=_UNSET) -> None:
@@ -453,8 +526,9 @@ class _Stitch:
         if self.bed.loops.get(pos, 0):
             cast.emit(self.ctx, "knit", d, pos, self.s, self.plain)
         else:
-            cast.emit(self.ctx, "tuck", d, pos, self.s,
-                      empty_needle_number(self.gen, self.s, self.plain))
+            cast.emit(
+                self.ctx, "tuck", d, pos, self.s, empty_needle_number(self.gen, self.s, self.plain)
+            )
 
     def tuck(self, dir=_UNSET, needle=_UNSET, carriers=_UNSET) -> None:
         d, pos = self._dir(dir), self._needle(needle, self.pos)
@@ -475,15 +549,20 @@ class _Stitch:
         self._mine(pos, "cannot knit on")
         number = self.gen.opts.numbers.increase
         cast.emit(self.ctx, "miss", d, pos, self.s)
-        cast.emit(self.ctx, "knit" if self.bed.loops.get(pos, 0) else "tuck", -d, pos, self.s,
-                  number)
+        cast.emit(
+            self.ctx, "knit" if self.bed.loops.get(pos, 0) else "tuck", -d, pos, self.s, number
+        )
 
     def xfer(self, source=_UNSET, target=_UNSET) -> None:
         a, b = self._needle(source), self._needle(target)
         if a[0] == b[0]:
-            raise EvalError("E724", f"a transfer goes to the other bed: {a[0]}{a[1]} and "
-                            f"{b[0]}{b[1]} are both on the {_bed_name(a)} bed", UNKNOWN_SPAN,
-                            "transfer to `opposite` (or a needle near it), then back")
+            raise EvalError(
+                "E724",
+                f"a transfer goes to the other bed: {a[0]}{a[1]} and "
+                f"{b[0]}{b[1]} are both on the {_bed_name(a)} bed",
+                UNKNOWN_SPAN,
+                "transfer to `opposite` (or a needle near it), then back",
+            )
         if not self.bed.loops.get(a, 0):
             return  # nothing to move (e.g. a loop a previous course left on the other bed)
         self._mine(a, "cannot transfer from")
@@ -500,21 +579,32 @@ class _Stitch:
         dst = self._needle(to, ("b" if src[0] == "f" else "f", src[1]))
         self._carriers(carriers)
         if src[0] == dst[0]:
-            raise EvalError("E724", f"a split sends the old loop to the other bed: "
-                            f"{src[0]}{src[1]} and {dst[0]}{dst[1]} are both on the "
-                            f"{_bed_name(src)} bed", UNKNOWN_SPAN)
+            raise EvalError(
+                "E724",
+                f"a split sends the old loop to the other bed: "
+                f"{src[0]}{src[1]} and {dst[0]}{dst[1]} are both on the "
+                f"{_bed_name(src)} bed",
+                UNKNOWN_SPAN,
+            )
         self._one_loop(src)
         self._mine(src, "cannot split on")
         self._mine(dst, "cannot split onto")
         bed = self.bed
         if not bed.loops.get(src, 0):  # no old loop to split: a loop laid onto the needle
-            cast.emit(self.ctx, "tuck", d, src, self.s,
-                      empty_needle_number(self.gen, self.s, self.plain))
+            cast.emit(
+                self.ctx, "tuck", d, src, self.s, empty_needle_number(self.gen, self.s, self.plain)
+            )
             return
         self._rack(_racking(src, dst))
         bed.prog.stitch_number(self.gen.opts.numbers.increase)
-        bed.prog.split(d, f"{src[0]}{src[1]}", f"{dst[0]}{dst[1]}", (self.ctx.carrier,),
-                       stitch=self.s, span=bed.span(self.s))
+        bed.prog.split(
+            d,
+            f"{src[0]}{src[1]}",
+            f"{dst[0]}{dst[1]}",
+            (self.ctx.carrier,),
+            stitch=self.s,
+            span=bed.span(self.s),
+        )
         bed.loops[dst] += bed.loops.pop(src, 0)
         moved = bed.at.pop(src, set())
         for x in moved:  # the old loops keep their stitches
@@ -534,10 +624,17 @@ class _Stitch:
             self.bed.drop(pos, self.s)
 
     def rack(self, r=_UNSET) -> None:
-        if isinstance(r, bool) or not isinstance(r, int | float) or (r - np.floor(r)) not in (
-                0, 0.25):
-            raise EvalError("E723", f"a racking is a whole number of needles (or that plus "
-                            f"0.25, the quarter pitch), got {_show(r)}", UNKNOWN_SPAN)
+        if (
+            isinstance(r, bool)
+            or not isinstance(r, int | float)
+            or (r - np.floor(r)) not in (0, 0.25)
+        ):
+            raise EvalError(
+                "E723",
+                f"a racking is a whole number of needles (or that plus "
+                f"0.25, the quarter pitch), got {_show(r)}",
+                UNKNOWN_SPAN,
+            )
         self._rack(int(r) if float(r).is_integer() else float(r))
 
 

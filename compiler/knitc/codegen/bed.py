@@ -44,14 +44,16 @@ class Bed:
     def set_rack(self, r: int) -> None:
         if r != self.rack:
             if abs(r) > self.max_rack:
-                raise Unsupported(f"a transfer needs racking {r}, beyond the machine's "
-                                  f"{self.max_rack}")
+                raise Unsupported(
+                    f"a transfer needs racking {r}, beyond the machine's {self.max_rack}"
+                )
             self.prog.rack(r)
             self.rack = r
 
     def xfer(self, src: Pos, dst: Pos, stitch: int) -> None:
-        self.prog.xfer(f"{src[0]}{src[1]}", f"{dst[0]}{dst[1]}", stitch=stitch,
-                       span=self.span(stitch))
+        self.prog.xfer(
+            f"{src[0]}{src[1]}", f"{dst[0]}{dst[1]}", stitch=stitch, span=self.span(stitch)
+        )
         moved = self.loops.pop(src, 0)
         self.loops[dst] += moved
         for s in self.at.pop(src, ()):

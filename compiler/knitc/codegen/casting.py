@@ -140,8 +140,9 @@ class Ctx:
         return self.bed.prog.machine.needles
 
 
-def emit(ctx: Ctx, kind: str, d: int, pos: Pos, stitch: int = -1,
-         number: int | None = None) -> None:
+def emit(
+    ctx: Ctx, kind: str, d: int, pos: Pos, stitch: int = -1, number: int | None = None
+) -> None:
     """One knit / tuck / miss with the working carrier, keeping the loop model right.
 
     Ops of a graph stitch go through `Bed.stitch_op`; a loop of no stitch is written here so
@@ -165,13 +166,15 @@ def emit(ctx: Ctx, kind: str, d: int, pos: Pos, stitch: int = -1,
 
 # ---- cast-on plans ----------------------------------------------------------------------------
 
+
 def plan_cast_on(kind: str, entries: Sequence[Entry], circular: bool) -> list[Step]:
     """The cast-on ops for `entries` (see the module docstring); first touches are tucks."""
     if not entries or kind == "none":
         return []
     if kind == "tuck":  # once around, or from the far end back to the first entry
-        order = [(e, e.dir) for e in entries] if circular else \
-            [(e, -e.dir) for e in reversed(entries)]
+        order = (
+            [(e, e.dir) for e in entries] if circular else [(e, -e.dir) for e in reversed(entries)]
+        )
     elif kind == "kickback" and len(entries) > (4 if circular else 2):
         order = _kickback(entries, circular)
     else:  # interlock, and kickbacks on too few needles
@@ -219,12 +222,17 @@ def plan_precast(first: Sequence[Entry], cover: set[Pos]) -> list[Step]:
         return []
     e0 = first[0]
     stitch = {e.pos: e.stitch for e in first}
-    line = [Entry(p, e0.dir, stitch.get(p, -1))
-            for p in sorted(cover, key=lambda p: (p[1] * e0.dir, p[0] != e0.pos[0]))]
+    line = [
+        Entry(p, e0.dir, stitch.get(p, -1))
+        for p in sorted(cover, key=lambda p: (p[1] * e0.dir, p[0] != e0.pos[0]))
+    ]
     steps = plan_cast_on("interlock", line, circular=False)
     start = line[0].pos[1]
-    back = [p for p in cover if p[0] == e0.pos[0]
-            and (p[1] - start) * e0.dir > 0 and (e0.pos[1] - p[1]) * e0.dir > 0]
+    back = [
+        p
+        for p in cover
+        if p[0] == e0.pos[0] and (p[1] - start) * e0.dir > 0 and (e0.pos[1] - p[1]) * e0.dir > 0
+    ]
     back.sort(key=lambda p: p[1] * e0.dir)
     return steps + [Step("knit", e0.dir, p, stitch.get(p, -1)) for p in back]
 
@@ -236,8 +244,10 @@ def emit_plan(ctx: Ctx, steps: Sequence[Step]) -> None:
 
 # ---- yarn start -------------------------------------------------------------------------------
 
-def catch_positions(bed: Bed, start: Pos, outward: int, busy: set[Pos], needles: int,
-                    count: int = CATCH_TUCKS) -> list[Pos]:
+
+def catch_positions(
+    bed: Bed, start: Pos, outward: int, busy: set[Pos], needles: int, count: int = CATCH_TUCKS
+) -> list[Pos]:
     """Up to `count` free needles for the catching tucks: empty, not `busy` (needles the
     cast-on or the first course will use), nearest `start`, outside (on the `outward` side)
     first, the back bed first at equal distance (the first tuck goes on the bed opposite the
@@ -262,14 +272,22 @@ def yarn_start(ctx: Ctx, start: Step | Entry, busy: set[Pos], stitch: int) -> li
     bed = ctx.bed
     bed.prog.stitch_number(ctx.numbers.yarn_start)
     bed.prog.inhook((ctx.carrier,), stitch=stitch, span=ctx.span)
-    catch = catch_positions(bed, start.pos, -start.dir or -1, busy, ctx.needles,
-                            CATCH_TUCKS + 1)
+    catch = catch_positions(bed, start.pos, -start.dir or -1, busy, ctx.needles, CATCH_TUCKS + 1)
     if not catch:
-        raise Unsupported(f"no free needle within {CATCH_REACH} needles of "
-                          f"{start.pos[0]}{start.pos[1]} to catch the new yarn on")
+        raise Unsupported(
+            f"no free needle within {CATCH_REACH} needles of "
+            f"{start.pos[0]}{start.pos[1]} to catch the new yarn on"
+        )
     order = sorted(catch, key=lambda p: (p[1], p[0] == "b"))
-    if len(catch) > CATCH_TUCKS and (order[-1][0] != "b" or (  # the first tuck goes on the back
-            start.dir > 0 and all(p[1] < start.pos[1] for p in catch[:CATCH_TUCKS]))):
+    if (
+        len(catch) > CATCH_TUCKS
+        and (
+            order[-1][0] != "b"
+            or (  # the first tuck goes on the back
+                start.dir > 0 and all(p[1] < start.pos[1] for p in catch[:CATCH_TUCKS])
+            )
+        )
+    ):
         catch = catch[:CATCH_TUCKS]  # (or the cast-on starts rightward from the tucks' right)
         order = sorted(catch, key=lambda p: (p[1], p[0] == "b"))
     # rightmost leftward, leftmost rightward, then inwards from both ends the same way: a
@@ -290,8 +308,10 @@ def yarn_start(ctx: Ctx, start: Step | Entry, busy: set[Pos], stitch: int) -> li
 
 # ---- cast-off ---------------------------------------------------------------------------------
 
-def runs(ends: Sequence[int], neighbours: Callable[[int, int], bool], circular: bool
-         ) -> list[list[int]]:
+
+def runs(
+    ends: Sequence[int], neighbours: Callable[[int, int], bool], circular: bool
+) -> list[list[int]]:
     """`ends` (stitches in yarn order) split into runs of course neighbours; on a circular
     course a run that wraps around the start is joined."""
     out: list[list[int]] = []
@@ -305,8 +325,9 @@ def runs(ends: Sequence[int], neighbours: Callable[[int, int], bool], circular: 
     return out
 
 
-def cast_off_run(ctx: Ctx, kind: str, run: Sequence[int], closing: int, last_dir: int
-                 ) -> tuple[int, int]:
+def cast_off_run(
+    ctx: Ctx, kind: str, run: Sequence[int], closing: int, last_dir: int
+) -> tuple[int, int]:
     """Bind off `run` (yarn order) starting from its last stitch; `closing` is a live stitch
     the final loop is moved onto (-1: none). Returns the stitch whose loop is left for the
     tail (-1 when the run was closed onto `closing`) and the direction of the last knit."""
@@ -376,6 +397,7 @@ def tail(ctx: Ctx, stitch: int, last_dir: int) -> Pos | None:
 
 
 # ---- yarn end ---------------------------------------------------------------------------------
+
 
 def last_move(ctx: Ctx) -> tuple[int, int] | None:
     """(needle index, direction) of the working carrier's last knit/tuck/miss, if any."""

@@ -59,6 +59,7 @@ CARRIED = list(MOVES) + list(CROSSES)
 
 # ---- options ----------------------------------------------------------------------------------
 
+
 @dataclass(frozen=True)
 class CodegenOptions:
     """The fabrication choices code generation follows, resolved from the skeleton.
@@ -81,12 +82,15 @@ class CodegenOptions:
     indexed by `StitchGraph.action` (`action_table`)."""
 
     def cast_on_for(self, names: tuple[str, ...]) -> str:
-        return next((self.interface_cast_on[n] for n in names if n in self.interface_cast_on),
-                    self.cast_on)
+        return next(
+            (self.interface_cast_on[n] for n in names if n in self.interface_cast_on), self.cast_on
+        )
 
     def cast_off_for(self, names: tuple[str, ...]) -> str:
-        return next((self.interface_cast_off[n] for n in names
-                     if n in self.interface_cast_off), self.cast_off)
+        return next(
+            (self.interface_cast_off[n] for n in names if n in self.interface_cast_off),
+            self.cast_off,
+        )
 
     def increase_for(self, node: str) -> str:
         inc = self.node_increase.get(node, "auto")
@@ -97,13 +101,17 @@ def options_from_skeleton(skel: sk.Skeleton) -> CodegenOptions:
     m = skel.machine
     itfs = skel.interfaces.values()
     return CodegenOptions(
-        cast_on=m.cast_on, cast_off=m.cast_off, increase=m.increase,
+        cast_on=m.cast_on,
+        cast_off=m.cast_off,
+        increase=m.increase,
         interface_cast_on={str(i.id): i.cast_on for i in itfs if i.cast_on != "auto"},
         interface_cast_off={str(i.id): i.cast_off for i in itfs if i.cast_off != "auto"},
         interface_span={str(i.id): i.span for i in itfs if i.span is not None},
-        node_increase={name: str(n.props.get("increase", "auto"))
-                       for name, n in skel.nodes.items()},
-        actions=action_table(skel))
+        node_increase={
+            name: str(n.props.get("increase", "auto")) for name, n in skel.nodes.items()
+        },
+        actions=action_table(skel),
+    )
 
 
 def action_table(skel: sk.Skeleton) -> tuple:
@@ -113,6 +121,7 @@ def action_table(skel: sk.Skeleton) -> tuple:
 
 
 # ---- state ------------------------------------------------------------------------------------
+
 
 @dataclass
 class _Gen:
@@ -167,37 +176,63 @@ class _Gen:
         return cast.Ctx(self.bed, carrier, self.opts.numbers, self.bed.span(int(s)))
 
 
-def generate(g: StitchGraph, sched: sc.Schedule, t: tr.Trace, *, machine: Machine,
-             carriers: tuple[int, ...], diags: Diagnostics,
-             options: CodegenOptions | None = None) -> MachineProgram | None:
+def generate(
+    g: StitchGraph,
+    sched: sc.Schedule,
+    t: tr.Trace,
+    *,
+    machine: Machine,
+    carriers: tuple[int, ...],
+    diags: Diagnostics,
+    options: CodegenOptions | None = None,
+) -> MachineProgram | None:
     """The machine program for the whole trace; None (with an error) if something cannot
     be knitted yet."""
     prog = MachineProgram(machine)
-    gen = _Gen(g, sched, t, carriers, Bed(g, prog, machine.racking_limit),
-               options or CodegenOptions(), diags)
+    gen = _Gen(
+        g,
+        sched,
+        t,
+        carriers,
+        Bed(g, prog, machine.racking_limit),
+        options or CodegenOptions(),
+        diags,
+    )
     try:
         _run(gen)
     except Unsupported as exc:
-        diags.error("E602", f"cannot generate machine code: {exc}", gen.where_span,
-                    hint="the transfer planner found no sequence of transfers within the "
-                         "machine's racking limit and free needles; allow more racking "
-                         "(`machine { racking: ... }`) or shape more gradually")
+        diags.error(
+            "E602",
+            f"cannot generate machine code: {exc}",
+            gen.where_span,
+            hint="the transfer planner found no sequence of transfers within the "
+            "machine's racking limit and free needles; allow more racking "
+            "(`machine { racking: ... }`) or shape more gradually",
+        )
         return None
     for origin, n in sorted(gen.reverse_conflicts.items()):
         span, notes = origin_site(g, origin)
-        diags.warning("W603", f"{n} reverse stitch(es) are knitted plain: the needle facing "
-                      "them holds another loop (on a full-gauge tube, the other side's "
-                      "fabric)", span, notes=notes,
-                      hint="knit this node in half gauge (`gauge: half`) to leave the "
-                           "facing needles empty for reverse stitches")
+        diags.warning(
+            "W603",
+            f"{n} reverse stitch(es) are knitted plain: the needle facing "
+            "them holds another loop (on a full-gauge tube, the other side's "
+            "fabric)",
+            span,
+            notes=notes,
+            hint="knit this node in half gauge (`gauge: half`) to leave the "
+            "facing needles empty for reverse stitches",
+        )
     for node, n in sorted(gen.split_fallbacks.items()):
         ids = np.nonzero(g.node == node)[0]
-        diags.warning("W602", f"{n} split increase(s) of `{g.node_names[node]}` use a kickback "
-                      "increase: no needle on the other bed was free to split onto, or the "
-                      "yarn would have floated past two split stitches in a row",
-                      gen.bed.span(int(ids[0])) if ids.size else None,
-                      hint="split increases need the facing needle free: use half gauge, "
-                           "or `increase: kickback`")
+        diags.warning(
+            "W602",
+            f"{n} split increase(s) of `{g.node_names[node]}` use a kickback "
+            "increase: no needle on the other bed was free to split onto, or the "
+            "yarn would have floated past two split stitches in a row",
+            gen.bed.span(int(ids[0])) if ids.size else None,
+            hint="split increases need the facing needle free: use half gauge, "
+            "or `increase: kickback`",
+        )
     return prog
 
 
@@ -278,7 +313,7 @@ def _run(gen: _Gen) -> None:
             # the schedule lets a later slice of the course knit on one of their needles:
             # then this slice gets its own cast-off pass (ch. 6.8), with its own tail.
             ends = [int(x) for x in ids if g.wale_next[x, 0] < 0]
-            if ends and _reused_later(gen, ends, t.stitch[int(sub[-1]) + 1:course_bounds[ci]]):
+            if ends and _reused_later(gen, ends, t.stitch[int(sub[-1]) + 1 : course_bounds[ci]]):
                 with prog.code_pass("cast_off"):
                     left, last_dir = _cast_off(gen, ctx, sub, ends)
                 if left >= 0:
@@ -299,8 +334,14 @@ def _lead_out(gen: _Gen, ctx: cast.Ctx, sub: np.ndarray) -> None:
     v = int(sub[-1])
     w = v + 1
     if w < t.n_visits and t.yarn[w] == t.yarn[v]:
-        _lead_to(gen, ctx, int(gen.dirs[v]), gen.pos(int(t.stitch[w]))[1],
-                 int(gen.dirs[w]), int(t.stitch[v]))
+        _lead_to(
+            gen,
+            ctx,
+            int(gen.dirs[v]),
+            gen.pos(int(t.stitch[w]))[1],
+            int(gen.dirs[w]),
+            int(t.stitch[v]),
+        )
 
 
 def _lead_to(gen: _Gen, ctx: cast.Ctx, d: int, there: int, nd: int, stitch: int) -> None:
@@ -319,8 +360,9 @@ def _reused_later(gen: _Gen, ends: list[int], rest: np.ndarray) -> bool:
     return any(gen.pos(int(x)) in held for x in rest)
 
 
-def _finish_course(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, carrier: int,
-                   free: list[int]) -> None:
+def _finish_course(
+    gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, carrier: int, free: list[int]
+) -> None:
     """Cast off what ends, end the yarn if it ends."""
     g, t = gen.g, gen.t
     ids = t.stitch[chunk]
@@ -340,6 +382,7 @@ def _finish_course(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, carrier: int,
 
 # ---- shaping and alignment ----------------------------------------------------------------------
 
+
 def _place(gen: _Gen, aligned: tuple, represented: tuple, first: int) -> None:
     """The alignment and shaping passes before a slice: held loops move out of the way, then
     every loop the slice's cycle stands for goes where the slice's layout puts it (the
@@ -349,8 +392,7 @@ def _place(gen: _Gen, aligned: tuple, represented: tuple, first: int) -> None:
     for loops, beds, needles in (aligned, represented):
         for s, b, n in zip(loops.tolist(), beds.tolist(), needles.tolist(), strict=True):
             here = bed.where.get(s)
-            if here is not None and here != (BEDS[b], n) \
-                    and not (here[1] == n and _stays(gen, s)):
+            if here is not None and here != (BEDS[b], n) and not (here[1] == n and _stays(gen, s)):
                 moves.append((s, here, (BEDS[b], n)))
     if moves:
         _park(gen, moves, gen.pos(first)[1])
@@ -452,8 +494,12 @@ def _carry(gen: _Gen, chunk: np.ndarray) -> None:
         involved |= {x, t}
         rounds[3].append((x, home[x], home[t]))
     # a loop is carried from its needle, or (a B move's) from the needle facing it
-    moves = [m for part in rounds for m in part
-             if bed.where.get(m[0]) in (m[1], ("b" if m[1][0] == "f" else "f", m[1][1]))]
+    moves = [
+        m
+        for part in rounds
+        for m in part
+        if bed.where.get(m[0]) in (m[1], ("b" if m[1][0] == "f" else "f", m[1][1]))
+    ]
     if not moves:
         return
     _park(gen, moves, gen.pos(int(ids[-1]))[1])
@@ -509,9 +555,12 @@ def _park(gen: _Gen, moves: list, toward: int) -> None:
 
 # ---- cast-on ----------------------------------------------------------------------------------
 
+
 def _entries(gen: _Gen, chunk: np.ndarray) -> list[cast.Entry]:
-    return [cast.Entry(gen.pos(int(s)), int(d) or 1, int(s))
-            for s, d in zip(gen.t.stitch[chunk], gen.dirs[chunk], strict=True)]
+    return [
+        cast.Entry(gen.pos(int(s)), int(d) or 1, int(s))
+        for s, d in zip(gen.t.stitch[chunk], gen.dirs[chunk], strict=True)
+    ]
 
 
 def _cast_on(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, new: bool) -> list[Pos]:
@@ -535,13 +584,17 @@ def _cast_on(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, new: bool) -> list[Pos
         # a purl (or an action that transfers) of the first course needs the needle
         # facing it free
         progs = gen.opts.actions
-        busy |= {("b" if e.pos[0] == "f" else "f", e.pos[1]) for e in entries
-                 if int(g.instr[e.stitch]) == PURL or (
-                     0 <= int(g.action[e.stitch]) < len(progs)
-                     and getattr(progs[int(g.action[e.stitch])], "transfers", False))}
+        busy |= {
+            ("b" if e.pos[0] == "f" else "f", e.pos[1])
+            for e in entries
+            if int(g.instr[e.stitch]) == PURL
+            or (
+                0 <= int(g.action[e.stitch]) < len(progs)
+                and getattr(progs[int(g.action[e.stitch])], "transfers", False)
+            )
+        }
         with gen.bed.prog.code_pass("yarn_start"):
-            catch = cast.yarn_start(ctx, plan[0] if plan else entries[0], busy,
-                                    entries[0].stitch)
+            catch = cast.yarn_start(ctx, plan[0] if plan else entries[0], busy, entries[0].stitch)
     with gen.bed.prog.code_pass("cast_on"):
         cast.emit_plan(ctx, plan)
         if plan:  # end past where the first course starts, as an action pass does
@@ -558,27 +611,35 @@ def _precast_cover(gen: _Gen, node: int) -> set[Pos]:
     cast-on loop there would stand in for the loop that closes the end)."""
     g, sched = gen.g, gen.sched
     ids = np.nonzero(g.node == node)[0]
-    spans = [(k, min(nf.min(), nt.min()), max(nf.max(), nt.max()))
-             for k, _lo, _bf, nf, _bt, nt in sc.moves(g, sched)
-             if int(sched.slices.node[k]) == node]
+    spans = [
+        (k, min(nf.min(), nt.min()), max(nf.max(), nt.max()))
+        for k, _lo, _bf, nf, _bt, nt in sc.moves(g, sched)
+        if int(sched.slices.node[k]) == node
+    ]
     needle = gen.knit_needle[ids].astype(np.int64)
     # the other side's stitch of a closed end opening into a tube knits through the old
     # loop of a split (`_increases`)
     kids = g.wale_next[ids]
     two = (kids >= 0).all(1)
     across = two & (g.side[np.maximum(kids[:, 0], 0)] != g.side[np.maximum(kids[:, 1], 0)])
-    fetched = {gen.pos(int(k)) for p, row in zip(ids[across].tolist(), kids[across].tolist())
-               for k in row if int(g.side[k]) != int(g.side[p])}
+    fetched = {
+        gen.pos(int(k))
+        for p, row in zip(ids[across].tolist(), kids[across].tolist())
+        for k in row
+        if int(g.side[k]) != int(g.side[p])
+    }
     blocked = np.zeros(ids.size, bool)
     if spans:
         k, lo, hi = (np.array(c, np.int64) for c in zip(*spans, strict=True))
         when = sc.knit_slices(sched, g.n_stitches)[ids]
-        blocked = ((k <= when[:, None]) & (lo <= needle[:, None])
-                   & (needle[:, None] <= hi)).any(axis=1)  # type: ignore[assignment]
+        blocked = ((k <= when[:, None]) & (lo <= needle[:, None]) & (needle[:, None] <= hi)).any(
+            axis=1
+        )  # type: ignore[assignment]
     return {gen.pos(int(x)) for x in ids[~blocked]} - fetched
 
 
 # ---- action pass ------------------------------------------------------------------------------
+
 
 def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int, int]) -> None:
     incs = _increases(gen, chunk, primary)
@@ -586,8 +647,10 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
         if s in gen.fetch:
             gen.fetch.discard(s)
             incs[s] = ("fetch",)
-    acts = [_action(gen, ctx, int(s), int(d) or 1, incs.get(int(s)))
-            for s, d in zip(gen.t.stitch[chunk], gen.dirs[chunk], strict=True)]
+    acts = [
+        _action(gen, ctx, int(s), int(d) or 1, incs.get(int(s)))
+        for s, d in zip(gen.t.stitch[chunk], gen.dirs[chunk], strict=True)
+    ]
     parts = actions.prepare_pass(gen, acts)  # one, or per bed (`split_by_side`)
     if parts and parts[-1]:
         parts[-1][-1].main.append(lambda: _lead_out(gen, ctx, chunk))
@@ -628,8 +691,7 @@ def _action(gen: _Gen, ctx: cast.Ctx, s: int, d: int, inc: tuple | None) -> Acti
         instr = INSTRUCTIONS[int(gen.g.instr[s])]
         if instr == "P" or instr[0] == "B":  # reverse stitches; a B move is knitted reversed
             # and its loop waits on the facing needle for `_carry`, which takes it from there
-            return _purl(gen, ctx, s, d, pos, plain, keep=instr[0] == "B") \
-                or Action(s, main=[knit])
+            return _purl(gen, ctx, s, d, pos, plain, keep=instr[0] == "B") or Action(s, main=[knit])
         if instr == "T":
             return Action(s, main=[lambda: cast.emit(ctx, "tuck", d, pos, s, plain)])
         if instr == "M":
@@ -645,12 +707,16 @@ def _action(gen: _Gen, ctx: cast.Ctx, s: int, d: int, inc: tuple | None) -> Acti
     if inc[0] == "miss":
         return Action(s, main=[missed])
     _, target, sibling = inc
-    return Action(s, main=[lambda: _split(gen, ctx, s, d, target, sibling)],
-                  post=[lambda: _unsplit(gen, target, sibling)])
+    return Action(
+        s,
+        main=[lambda: _split(gen, ctx, s, d, target, sibling)],
+        post=[lambda: _unsplit(gen, target, sibling)],
+    )
 
 
-def _purl(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, number: int,
-          keep: bool = False) -> Action | None:
+def _purl(
+    gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, number: int, keep: bool = False
+) -> Action | None:
     """P: a knit made from the other bed (ch. 4.2's lowering): the loop is transferred to the
     facing needle (pre), knitted there (main) and the new loop transferred back (post). The
     facing needle must be empty: always on a flat piece, on a tube only in half gauge; else
@@ -658,8 +724,9 @@ def _purl(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, number: int,
     bed, numbers = gen.bed, gen.opts.numbers
     other: Pos = ("b" if pos[0] == "f" else "f", pos[1])
     own = set(int(p) for p in gen.g.wale_prev[s] if p >= 0)
-    if (bed.loops.get(other, 0) and not bed.at.get(other, set()) <= own) \
-            or other in gen.course_needles:
+    if (
+        bed.loops.get(other, 0) and not bed.at.get(other, set()) <= own
+    ) or other in gen.course_needles:
         assert gen.g.origin is not None  # filled in by StitchGraph.__post_init__
         gen.reverse_conflicts[int(gen.g.origin[s])] += 1
         return None
@@ -741,9 +808,14 @@ def _increases(gen: _Gen, chunk: np.ndarray, primary: dict[int, int]) -> dict[in
             continue
         c2 = kids[0] if kids[1] == c1 else kids[1]
         src, sib = gen.pos(c1), gen.pos(c2)
-        if c1 in in_course and int(g.side[c1]) != int(g.side[c2]) \
-                and int(g.course[c2]) == course and not bed.loops.get(sib, 0) \
-                and bed.where.get(p) == src and visit[c1] < visit.get(c2, len(ids)):
+        if (
+            c1 in in_course
+            and int(g.side[c1]) != int(g.side[c2])
+            and int(g.course[c2]) == course
+            and not bed.loops.get(sib, 0)
+            and bed.where.get(p) == src
+            and visit[c1] < visit.get(c2, len(ids))
+        ):
             target = _split_target(gen, src, sib, busy)
             if target is not None:  # c2, later in this course, knits through the old loop
                 out[c1] = ("split", target, c2)
@@ -756,8 +828,7 @@ def _increases(gen: _Gen, chunk: np.ndarray, primary: dict[int, int]) -> dict[in
         if c2 not in in_course or bed.loops.get(gen.pos(c2), 0):
             continue
         node = int(g.node[c2])
-        if gen.opts.increase_for(g.node_names[node]) == "split" \
-                and bed.where.get(p) == gen.pos(c1):
+        if gen.opts.increase_for(g.node_names[node]) == "split" and bed.where.get(p) == gen.pos(c1):
             lonely = not ({int(g.cprev[c2]), int(g.cnext[c2])} & missed)
             target = _split_target(gen, gen.pos(c1), gen.pos(c2), busy) if lonely else None
             if target is not None:
@@ -769,8 +840,11 @@ def _increases(gen: _Gen, chunk: np.ndarray, primary: dict[int, int]) -> dict[in
             gen.split_fallbacks[node] += 1
         # across a gauge change the finer gauge's new loops are laid in the pass, every
         # other needle, like a cast-on: a kickback each would reverse the carriage twice
-        out[c2] = ("laid",) if g.course_gauge[g.course[c2]] != g.course_gauge[g.course[p]] \
+        out[c2] = (
+            ("laid",)
+            if g.course_gauge[g.course[c2]] != g.course_gauge[g.course[p]]
             else ("kickback",)
+        )
     return out
 
 
@@ -801,8 +875,14 @@ def _split(gen: _Gen, ctx: cast.Ctx, s: int, d: int, target: Pos, sibling: int) 
     r = src[1] - target[1] if src[0] == "f" else target[1] - src[1]
     bed.prog.stitch_number(gen.opts.numbers.increase)
     bed.set_rack(r)
-    bed.prog.split(d, f"{src[0]}{src[1]}", f"{target[0]}{target[1]}", (ctx.carrier,),
-                   stitch=s, span=bed.span(s))
+    bed.prog.split(
+        d,
+        f"{src[0]}{src[1]}",
+        f"{target[0]}{target[1]}",
+        (ctx.carrier,),
+        stitch=s,
+        span=bed.span(s),
+    )
     bed.loops[target] += bed.loops.pop(src, 0)
     for x in bed.at.pop(src, ()):
         del bed.where[x]
@@ -850,6 +930,7 @@ def _presser(gen: _Gen, c: int) -> None:
 
 # ---- cast-off ---------------------------------------------------------------------------------
 
+
 def _cast_off(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, ends: list[int]) -> tuple[int, int]:
     """Bind off the stitches that end, run by run from the last one knitted; returns the
     stitch whose loop is left for the yarn's tail (-1: none) and its last knit direction."""
@@ -875,8 +956,9 @@ def _cast_off(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, ends: list[int]) -> t
     todo = list(reversed(runs))
     while todo:
         run = _nearest_run(gen, todo, ctx.carrier)
-        st, d = cast.cast_off_run(gen.ctx(ctx.carrier, run[-1]), kind, run,
-                                  _closing(gen, run, end_set, order), last_dir)
+        st, d = cast.cast_off_run(
+            gen.ctx(ctx.carrier, run[-1]), kind, run, _closing(gen, run, end_set, order), last_dir
+        )
         last_dir = d or last_dir
         if not todo:
             left, left_dir = st, d
@@ -908,8 +990,11 @@ def _closing(gen: _Gen, run: list[int], ends: set[int], order: dict[int, int]) -
     chain onto: the one knitted before it, else any."""
     g = gen.g
     first = run[0]
-    cands = [int(n) for n in (g.cprev[first], g.cnext[first])
-             if n >= 0 and int(n) not in ends and int(n) in gen.bed.where]
+    cands = [
+        int(n)
+        for n in (g.cprev[first], g.cnext[first])
+        if n >= 0 and int(n) not in ends and int(n) in gen.bed.where
+    ]
     cands.sort(key=lambda n: (order.get(n, len(order)) > order.get(first, 0), n))
     return cands[0] if cands else -1
 
@@ -927,7 +1012,11 @@ def _warn_dropped(gen: _Gen, names: tuple[str, ...], n: int, s: int) -> None:
     gen.warned.add(key)
     where = f"`{names[0]}`" if names else "a course"
     span = gen.opts.interface_span.get(names[0]) if names else None
-    gen.diags.warning("W601", f"{where} is not cast off (`cast_off: none`): its {n} loop(s) "
-                      "are dropped and the edge will unravel unless it is secured off the "
-                      "machine", span or gen.bed.span(s),
-                      hint="use `cast_off: pickup`, `direct` or `reverse` for a bound edge")
+    gen.diags.warning(
+        "W601",
+        f"{where} is not cast off (`cast_off: none`): its {n} loop(s) "
+        "are dropped and the edge will unravel unless it is secured off the "
+        "machine",
+        span or gen.bed.span(s),
+        hint="use `cast_off: pickup`, `direct` or `reverse` for a bound edge",
+    )

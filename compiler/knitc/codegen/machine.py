@@ -63,7 +63,7 @@ class Needle:
         if bed not in BEDS:
             raise ValueError(f"not a needle: {text!r}")
         try:
-            return cls(bed, int(t[len(bed):]))
+            return cls(bed, int(t[len(bed) :]))
         except ValueError:
             raise ValueError(f"not a needle: {text!r}") from None
 
@@ -120,6 +120,7 @@ def aligned(a: NeedleLike, b: NeedleLike, racking: float) -> bool:
 
 # ---- the machine profile ----------------------------------------------------------------------
 
+
 @dataclass(frozen=True)
 class Machine:
     """The target machine: the values written into the Knitout header and checked against."""
@@ -140,16 +141,39 @@ class Machine:
         return tuple(range(1, self.carriers + 1))
 
     def to_json(self) -> dict[str, Any]:
-        return {"name": self.name, "needles": self.needles, "gauge": self.gauge,
-                "racking_limit": self.racking_limit, "carriers": self.carriers,
-                "max_carriers_per_op": self.max_carriers_per_op}
+        return {
+            "name": self.name,
+            "needles": self.needles,
+            "gauge": self.gauge,
+            "racking_limit": self.racking_limit,
+            "carriers": self.carriers,
+            "max_carriers_per_op": self.max_carriers_per_op,
+        }
 
 
 # ---- operations -------------------------------------------------------------------------------
 
-KINDS = ("in", "inhook", "releasehook", "out", "outhook", "knit", "tuck", "split", "xfer",
-         "drop", "miss", "amiss", "rack", "stitch", "stitch_number", "speed", "presser", "pause",
-         "comment")
+KINDS = (
+    "in",
+    "inhook",
+    "releasehook",
+    "out",
+    "outhook",
+    "knit",
+    "tuck",
+    "split",
+    "xfer",
+    "drop",
+    "miss",
+    "amiss",
+    "rack",
+    "stitch",
+    "stitch_number",
+    "speed",
+    "presser",
+    "pause",
+    "comment",
+)
 """Every op kind, in a fixed order (also the order of `stats()["kinds"]`)."""
 
 CARRIER_KINDS = frozenset({"in", "inhook", "releasehook", "out", "outhook"})
@@ -162,15 +186,26 @@ LOOP_KINDS = frozenset({"knit", "tuck", "split"})
 SETTING_KINDS = frozenset({"stitch", "stitch_number", "speed", "presser"})
 PRESSER_MODES = ("on", "off", "auto")
 
-CODE_PASSES = ("", "yarn_start", "cast_on", "action", "shaping", "alignment", "cast_off",
-               "yarn_end")
+CODE_PASSES = (
+    "",
+    "yarn_start",
+    "cast_on",
+    "action",
+    "shaping",
+    "alignment",
+    "cast_off",
+    "yarn_end",
+)
 """The code pass (thesis ch. 6.8.1) an op belongs to; '' when it was not made by code
 generation (read from a file, built by hand). Tools read it: the fabric check finds the loop
 that stands for a stitch (the one its action pass formed), the bench counts transfer passes
 by kind, and pictures colour the passes."""
 
-KNITOUT_OPCODE = {"stitch_number": "x-stitch-number", "speed": "x-speed-number",
-                  "presser": "x-presser-mode"}
+KNITOUT_OPCODE = {
+    "stitch_number": "x-stitch-number",
+    "speed": "x-speed-number",
+    "presser": "x-presser-mode",
+}
 """Knitout opcodes that differ from the kind's name."""
 
 
@@ -290,10 +325,10 @@ class MachineProgram:
     """The ``;;Width:`` header (bed width in needles, used by the Shima back end to place a
     Center or Keep design); None when absent."""
     _racking: float = field(default=0, init=False, repr=False, compare=False)
-    _settings: dict[str, Any] = field(default_factory=dict, init=False, repr=False,
-                                      compare=False)
-    _context: list[tuple[int, Span | None]] = field(default_factory=list, init=False,
-                                                    repr=False, compare=False)
+    _settings: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
+    _context: list[tuple[int, Span | None]] = field(
+        default_factory=list, init=False, repr=False, compare=False
+    )
     _phase: str = field(default="", init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -336,8 +371,7 @@ class MachineProgram:
 
     def _prov(self, stitch: int, span: Span | None) -> tuple[int, Span | None]:
         ctx_stitch, ctx_span = self._context[-1] if self._context else (-1, None)
-        return (ctx_stitch if stitch is _UNSET else stitch,
-                ctx_span if span is _UNSET else span)
+        return (ctx_stitch if stitch is _UNSET else stitch, ctx_span if span is _UNSET else span)
 
     # -- appending ----------------------------------------------------------------------------
 
@@ -360,52 +394,103 @@ class MachineProgram:
 
     # -- carriers -----------------------------------------------------------------------------
 
-    def in_(self, carriers: CarriersLike, *, stitch: int = _UNSET, span: Span | None = _UNSET
-            ) -> Op:
+    def in_(
+        self, carriers: CarriersLike, *, stitch: int = _UNSET, span: Span | None = _UNSET
+    ) -> Op:
         """``in CS``: bring carriers in from the grippers (Knitout ``in``)."""
         return self._add("in", stitch, span, carriers=as_carriers(carriers))
 
-    def inhook(self, carriers: CarriersLike, *, stitch: int = _UNSET,
-               span: Span | None = _UNSET) -> Op:
+    def inhook(
+        self, carriers: CarriersLike, *, stitch: int = _UNSET, span: Span | None = _UNSET
+    ) -> Op:
         return self._add("inhook", stitch, span, carriers=as_carriers(carriers))
 
-    def releasehook(self, carriers: CarriersLike, *, stitch: int = _UNSET,
-                    span: Span | None = _UNSET) -> Op:
+    def releasehook(
+        self, carriers: CarriersLike, *, stitch: int = _UNSET, span: Span | None = _UNSET
+    ) -> Op:
         return self._add("releasehook", stitch, span, carriers=as_carriers(carriers))
 
-    def out(self, carriers: CarriersLike, *, stitch: int = _UNSET,
-            span: Span | None = _UNSET) -> Op:
+    def out(
+        self, carriers: CarriersLike, *, stitch: int = _UNSET, span: Span | None = _UNSET
+    ) -> Op:
         return self._add("out", stitch, span, carriers=as_carriers(carriers))
 
-    def outhook(self, carriers: CarriersLike, *, stitch: int = _UNSET,
-                span: Span | None = _UNSET) -> Op:
+    def outhook(
+        self, carriers: CarriersLike, *, stitch: int = _UNSET, span: Span | None = _UNSET
+    ) -> Op:
         return self._add("outhook", stitch, span, carriers=as_carriers(carriers))
 
     # -- needle operations --------------------------------------------------------------------
 
-    def knit(self, dir: int, needle: NeedleLike, carriers: CarriersLike, *,
-             stitch: int = _UNSET, span: Span | None = _UNSET) -> Op:
-        return self._add("knit", stitch, span, dir=dir, needle=as_needle(needle),
-                         carriers=as_carriers(carriers))
+    def knit(
+        self,
+        dir: int,
+        needle: NeedleLike,
+        carriers: CarriersLike,
+        *,
+        stitch: int = _UNSET,
+        span: Span | None = _UNSET,
+    ) -> Op:
+        return self._add(
+            "knit", stitch, span, dir=dir, needle=as_needle(needle), carriers=as_carriers(carriers)
+        )
 
-    def tuck(self, dir: int, needle: NeedleLike, carriers: CarriersLike, *,
-             stitch: int = _UNSET, span: Span | None = _UNSET) -> Op:
-        return self._add("tuck", stitch, span, dir=dir, needle=as_needle(needle),
-                         carriers=as_carriers(carriers))
+    def tuck(
+        self,
+        dir: int,
+        needle: NeedleLike,
+        carriers: CarriersLike,
+        *,
+        stitch: int = _UNSET,
+        span: Span | None = _UNSET,
+    ) -> Op:
+        return self._add(
+            "tuck", stitch, span, dir=dir, needle=as_needle(needle), carriers=as_carriers(carriers)
+        )
 
-    def split(self, dir: int, needle: NeedleLike, needle2: NeedleLike, carriers: CarriersLike,
-              *, stitch: int = _UNSET, span: Span | None = _UNSET) -> Op:
+    def split(
+        self,
+        dir: int,
+        needle: NeedleLike,
+        needle2: NeedleLike,
+        carriers: CarriersLike,
+        *,
+        stitch: int = _UNSET,
+        span: Span | None = _UNSET,
+    ) -> Op:
         """New loop on `needle` while its old loops go to the facing `needle2`."""
-        return self._add("split", stitch, span, dir=dir, needle=as_needle(needle),
-                         needle2=as_needle(needle2), carriers=as_carriers(carriers))
+        return self._add(
+            "split",
+            stitch,
+            span,
+            dir=dir,
+            needle=as_needle(needle),
+            needle2=as_needle(needle2),
+            carriers=as_carriers(carriers),
+        )
 
-    def miss(self, dir: int, needle: NeedleLike, carriers: CarriersLike, *,
-             stitch: int = _UNSET, span: Span | None = _UNSET) -> Op:
-        return self._add("miss", stitch, span, dir=dir, needle=as_needle(needle),
-                         carriers=as_carriers(carriers))
+    def miss(
+        self,
+        dir: int,
+        needle: NeedleLike,
+        carriers: CarriersLike,
+        *,
+        stitch: int = _UNSET,
+        span: Span | None = _UNSET,
+    ) -> Op:
+        return self._add(
+            "miss", stitch, span, dir=dir, needle=as_needle(needle), carriers=as_carriers(carriers)
+        )
 
-    def xfer(self, needle: NeedleLike, needle2: NeedleLike, *, auto_rack: bool = False,
-             stitch: int = _UNSET, span: Span | None = _UNSET) -> Op:
+    def xfer(
+        self,
+        needle: NeedleLike,
+        needle2: NeedleLike,
+        *,
+        auto_rack: bool = False,
+        stitch: int = _UNSET,
+        span: Span | None = _UNSET,
+    ) -> Op:
         """Move every loop of `needle` to the facing `needle2`. With `auto_rack`, first rack
         to the racking that aligns them (elided if already there)."""
         a, b = as_needle(needle), as_needle(needle2)
@@ -413,47 +498,56 @@ class MachineProgram:
             self.rack(racking_for(a, b), stitch=stitch, span=span)
         return self._add("xfer", stitch, span, needle=a, needle2=b)
 
-    def drop(self, needle: NeedleLike, *, stitch: int = _UNSET,
-             span: Span | None = _UNSET) -> Op:
+    def drop(self, needle: NeedleLike, *, stitch: int = _UNSET, span: Span | None = _UNSET) -> Op:
         return self._add("drop", stitch, span, needle=as_needle(needle))
 
-    def amiss(self, needle: NeedleLike, *, stitch: int = _UNSET,
-              span: Span | None = _UNSET) -> Op:
+    def amiss(self, needle: NeedleLike, *, stitch: int = _UNSET, span: Span | None = _UNSET) -> Op:
         return self._add("amiss", stitch, span, needle=as_needle(needle))
 
     # -- machine state ------------------------------------------------------------------------
 
-    def rack(self, racking: float, *, force: bool = False, stitch: int = _UNSET,
-             span: Span | None = _UNSET) -> Op | None:
+    def rack(
+        self,
+        racking: float,
+        *,
+        force: bool = False,
+        stitch: int = _UNSET,
+        span: Span | None = _UNSET,
+    ) -> Op | None:
         """Set the racking; returns None (no op) when it is already `racking`."""
         r = int(racking) if float(racking).is_integer() else float(racking)
         if r == self._racking and not force:
             return None
         return self._add("rack", stitch, span, value=r)
 
-    def _setting(self, kind: str, value: Any, force: bool, stitch: int,
-                 span: Span | None) -> Op | None:
+    def _setting(
+        self, kind: str, value: Any, force: bool, stitch: int, span: Span | None
+    ) -> Op | None:
         if not force and self._settings.get(kind, _UNSET) == value:
             return None
         return self._add(kind, stitch, span, value=value)
 
-    def stitch_number(self, k: int, *, force: bool = False, stitch: int = _UNSET,
-                      span: Span | None = _UNSET) -> Op | None:
+    def stitch_number(
+        self, k: int, *, force: bool = False, stitch: int = _UNSET, span: Span | None = _UNSET
+    ) -> Op | None:
         """``x-stitch-number k`` (index into the machine's stitch table)."""
         return self._setting("stitch_number", int(k), force, stitch, span)
 
-    def speed(self, k: int, *, force: bool = False, stitch: int = _UNSET,
-              span: Span | None = _UNSET) -> Op | None:
+    def speed(
+        self, k: int, *, force: bool = False, stitch: int = _UNSET, span: Span | None = _UNSET
+    ) -> Op | None:
         """``x-speed-number k``."""
         return self._setting("speed", int(k), force, stitch, span)
 
-    def presser(self, mode: str, *, force: bool = False, stitch: int = _UNSET,
-                span: Span | None = _UNSET) -> Op | None:
+    def presser(
+        self, mode: str, *, force: bool = False, stitch: int = _UNSET, span: Span | None = _UNSET
+    ) -> Op | None:
         """``x-presser-mode on|off|auto``."""
         return self._setting("presser", mode, force, stitch, span)
 
-    def pause(self, message: str | None = None, *, stitch: int = _UNSET,
-              span: Span | None = _UNSET) -> Op:
+    def pause(
+        self, message: str | None = None, *, stitch: int = _UNSET, span: Span | None = _UNSET
+    ) -> Op:
         return self._add("pause", stitch, span, value=message)
 
     def comment(self, text: str, *, stitch: int = _UNSET, span: Span | None = _UNSET) -> Op:
@@ -489,6 +583,7 @@ class MachineProgram:
 
 
 # ---- passes -----------------------------------------------------------------------------------
+
 
 def estimate_passes(ops: Iterable[Op]) -> int:
     """Carriage passes, estimated the way backends merge ops (research §1.5).
@@ -535,6 +630,7 @@ def estimate_passes(ops: Iterable[Op]) -> int:
 
 # ---- verifier ---------------------------------------------------------------------------------
 
+
 def _is_number(v: Any) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
 
@@ -555,8 +651,12 @@ def op_problems(op: Op, machine: Machine) -> list[str]:
     if (op.needle2 is not None) != wants_needle2:
         problems.append("second needle " + ("missing" if wants_needle2 else "not allowed"))
     for n in (op.needle, op.needle2):
-        if n is not None and (not isinstance(n, Needle) or n.bed not in BEDS
-                              or not isinstance(n.index, int) or isinstance(n.index, bool)):
+        if n is not None and (
+            not isinstance(n, Needle)
+            or n.bed not in BEDS
+            or not isinstance(n.index, int)
+            or isinstance(n.index, bool)
+        ):
             problems.append(f"bad needle {n!r}")
     if k in DIRECTED_KINDS:
         if op.dir not in (1, -1) or isinstance(op.dir, bool):
@@ -569,21 +669,31 @@ def op_problems(op: Op, machine: Machine) -> list[str]:
         problems.append("carriers not allowed")
     if len(set(op.carriers)) != len(op.carriers):
         problems.append("a carrier is listed twice")
-    if any(not isinstance(c, int) or isinstance(c, bool) or not 1 <= c <= machine.carriers
-           for c in op.carriers):
+    if any(
+        not isinstance(c, int) or isinstance(c, bool) or not 1 <= c <= machine.carriers
+        for c in op.carriers
+    ):
         problems.append(f"carriers {list(op.carriers)} outside 1..{machine.carriers}")
     if k in DIRECTED_KINDS and len(op.carriers) > machine.max_carriers_per_op:
-        problems.append(f"{len(op.carriers)} carriers in one op "
-                        f"(at most {machine.max_carriers_per_op})")
-    if wants_needle2 and isinstance(op.needle, Needle) and isinstance(op.needle2, Needle) \
-            and op.needle.is_front == op.needle2.is_front:
+        problems.append(
+            f"{len(op.carriers)} carriers in one op (at most {machine.max_carriers_per_op})"
+        )
+    if (
+        wants_needle2
+        and isinstance(op.needle, Needle)
+        and isinstance(op.needle2, Needle)
+        and op.needle.is_front == op.needle2.is_front
+    ):
         problems.append(f"{op.needle} and {op.needle2} are on the same bed")
     if k == "rack":
         if not _is_number(op.value):
             problems.append(f"racking {op.value!r} is not a number")
     elif k == "stitch":
-        if not (isinstance(op.value, tuple) and len(op.value) == 2
-                and all(_is_number(v) for v in op.value)):
+        if not (
+            isinstance(op.value, tuple)
+            and len(op.value) == 2
+            and all(_is_number(v) for v in op.value)
+        ):
             problems.append(f"stitch values {op.value!r} are not a pair of numbers")
     elif k in ("stitch_number", "speed"):
         if not isinstance(op.value, int) or isinstance(op.value, bool) or op.value < 0:
@@ -619,10 +729,14 @@ def verify(prog: MachineProgram) -> list[str]:
     return problems
 
 
-
 # ---- stable JSON ------------------------------------------------------------------------------
+
 
 def to_json(prog: MachineProgram) -> dict[str, Any]:
     """The dump of `knitc --emit machine`: stats first, then the machine and the ops."""
-    return {"stats": prog.stats(), "machine": prog.machine.to_json(),
-            "position": prog.position, "ops": [op.to_json() for op in prog.ops]}
+    return {
+        "stats": prog.stats(),
+        "machine": prog.machine.to_json(),
+        "position": prog.position,
+        "ops": [op.to_json() for op in prog.ops],
+    }

@@ -98,9 +98,15 @@ class Finding:
         return f"{self.severity}[{self.code}]{op}{where}: {self.message}"
 
     def to_json(self) -> dict[str, Any]:
-        return {"kind": self.kind, "code": self.code, "severity": self.severity,
-                "message": self.message, "op": self.op, "stitch": self.stitch,
-                "span": None if self.span is None else self.span.to_json()}
+        return {
+            "kind": self.kind,
+            "code": self.code,
+            "severity": self.severity,
+            "message": self.message,
+            "op": self.op,
+            "stitch": self.stitch,
+            "span": None if self.span is None else self.span.to_json(),
+        }
 
 
 # carrier states
@@ -115,8 +121,15 @@ class Simulator:
     the machine at the end.
     """
 
-    def __init__(self, prog: MachineProgram, *, max_loops: int = 2, max_float: int = 12,
-                 check_end: bool = True, limit_per_kind: int = 100) -> None:
+    def __init__(
+        self,
+        prog: MachineProgram,
+        *,
+        max_loops: int = 2,
+        max_float: int = 12,
+        check_end: bool = True,
+        limit_per_kind: int = 100,
+    ) -> None:
         self.prog = prog
         self.machine = prog.machine
         self.max_loops = max_loops
@@ -148,9 +161,16 @@ class Simulator:
         i = self._i if op is None else op
         o = self.prog.ops[i] if 0 <= i < len(self.prog.ops) else None
         sev = ERROR if CODES[kind].startswith("E") else WARNING
-        self.findings.append(Finding(kind, sev, message, i,
-                                     o.stitch if o is not None else -1,
-                                     o.span if o is not None else None))
+        self.findings.append(
+            Finding(
+                kind,
+                sev,
+                message,
+                i,
+                o.stitch if o is not None else -1,
+                o.span if o is not None else None,
+            )
+        )
 
     @property
     def active(self) -> tuple[int, ...]:
@@ -160,10 +180,19 @@ class Simulator:
 
     def run(self) -> list[Finding]:
         handlers = {
-            "in": self._in, "inhook": self._in, "releasehook": self._releasehook,
-            "out": self._out, "outhook": self._out, "knit": self._loop, "tuck": self._loop,
-            "split": self._loop, "miss": self._miss, "xfer": self._xfer, "drop": self._drop,
-            "amiss": self._needle_only, "rack": self._rack,
+            "in": self._in,
+            "inhook": self._in,
+            "releasehook": self._releasehook,
+            "out": self._out,
+            "outhook": self._out,
+            "knit": self._loop,
+            "tuck": self._loop,
+            "split": self._loop,
+            "miss": self._miss,
+            "xfer": self._xfer,
+            "drop": self._drop,
+            "amiss": self._needle_only,
+            "rack": self._rack,
         }
         for i, op in enumerate(self.prog.ops):
             self._i = i
@@ -180,8 +209,11 @@ class Simulator:
         for kind, n in self._counts.items():
             if n > self.limit_per_kind:
                 sev = ERROR if CODES[kind].startswith("E") else WARNING
-                self.findings.append(Finding(kind, sev, f"... and {n - self.limit_per_kind} "
-                                             f"more `{kind}` finding(s)", -1))
+                self.findings.append(
+                    Finding(
+                        kind, sev, f"... and {n - self.limit_per_kind} more `{kind}` finding(s)", -1
+                    )
+                )
         return self.findings
 
     # -- needles ------------------------------------------------------------------------------
@@ -190,8 +222,10 @@ class Simulator:
         ok = True
         for n in (op.needle, op.needle2):
             if n is not None and not 0 <= n.index < self.machine.needles:
-                self._report("needle_range", f"needle {n} is outside the bed "
-                             f"(0..{self.machine.needles - 1}) in `{op}`")
+                self._report(
+                    "needle_range",
+                    f"needle {n} is outside the bed (0..{self.machine.needles - 1}) in `{op}`",
+                )
                 ok = False
         return ok
 
@@ -203,8 +237,11 @@ class Simulator:
         else:
             self.loops.pop(n, None)
         if count > self.max_loops and count > before:
-            self._report("too_many_loops", f"{n} holds {count} loops "
-                         f"(more than {self.max_loops}) after `{self.prog.ops[self._i]}`")
+            self._report(
+                "too_many_loops",
+                f"{n} holds {count} loops "
+                f"(more than {self.max_loops}) after `{self.prog.ops[self._i]}`",
+            )
 
     def _needle_only(self, op: Op) -> None:
         self._in_range(op)
@@ -224,9 +261,12 @@ class Simulator:
             self._report("needle_use", f"`{op}` splits from a slider")
             return False
         if not aligned(a, b, self.racking):
-            self._report("misaligned_xfer", f"{a} and {b} are not aligned at racking "
-                         f"{format_number(self.racking)} in `{op}` (they face each other "
-                         f"at racking {racking_for(a, b)})")
+            self._report(
+                "misaligned_xfer",
+                f"{a} and {b} are not aligned at racking "
+                f"{format_number(self.racking)} in `{op}` (they face each other "
+                f"at racking {racking_for(a, b)})",
+            )
         return True
 
     def _move(self, a: Needle, b: Needle) -> None:
@@ -255,31 +295,39 @@ class Simulator:
                 # state does not echo the mistake as a carrier left in
                 if c not in self.not_in:
                     self.not_in.add(c)
-                    self._report("carrier_not_in", f"carrier {c} is used by `{op}` but is not "
-                                 "in (bring it in with `in` or `inhook` first)")
+                    self._report(
+                        "carrier_not_in",
+                        f"carrier {c} is used by `{op}` but is not "
+                        "in (bring it in with `in` or `inhook` first)",
+                    )
                 continue
             self.state[c] = _ACTIVE
             self.last_use[c] = self._i
         if self.hook and not self.hook_dir_checked and set(op.carriers) & set(self.hook):
             self.hook_dir_checked = True
             if op.dir > 0:
-                self._report("hook", f"the first pass after `inhook` must go leftward (-), "
-                             f"but `{op}` goes rightward")
+                self._report(
+                    "hook",
+                    f"the first pass after `inhook` must go leftward (-), "
+                    f"but `{op}` goes rightward",
+                )
 
     def _one_hooked(self, op: Op) -> None:
         if op.kind in ("inhook", "releasehook", "outhook") and len(op.carriers) > 1:
-            self._report("hook", f"`{op}`: the inserting hook takes one carrier at a time "
-                         "(the Knitout writer puts one carrier per line, and the second "
-                         f"`{op.kind}` would find the hook in use); bring the others in "
-                         "with `in`")
+            self._report(
+                "hook",
+                f"`{op}`: the inserting hook takes one carrier at a time "
+                "(the Knitout writer puts one carrier per line, and the second "
+                f"`{op.kind}` would find the hook in use); bring the others in "
+                "with `in`",
+            )
 
     def _in(self, op: Op) -> None:
         self._one_hooked(op)
         for c in op.carriers:
             self.not_in.discard(c)
             if self.state.get(c, _OUT) != _OUT:
-                self._report("carrier_state", f"`{op}` brings in carrier {c}, which is "
-                             "already in")
+                self._report("carrier_state", f"`{op}` brings in carrier {c}, which is already in")
                 continue  # it stays as it was
             self.state[c] = _PENDING
             self.stitched.discard(c)
@@ -287,8 +335,11 @@ class Simulator:
             self.last_use[c] = self._i
         if op.kind == "inhook":
             if self.hook:
-                self._report("hook", f"`{op}` while the inserting hook still holds carrier(s) "
-                             f"{' '.join(map(str, self.hook))} (release it first)")
+                self._report(
+                    "hook",
+                    f"`{op}` while the inserting hook still holds carrier(s) "
+                    f"{' '.join(map(str, self.hook))} (release it first)",
+                )
             self.hook, self.hook_op = op.carriers, self._i
             self.hook_stitched = self.hook_dir_checked = False
 
@@ -298,8 +349,10 @@ class Simulator:
             self._report("hook", f"`{op}` but the inserting hook holds nothing")
             return
         if op.carriers != self.hook:
-            self._report("hook", f"`{op}` but the inserting hook holds carrier(s) "
-                         f"{' '.join(map(str, self.hook))}")
+            self._report(
+                "hook",
+                f"`{op}` but the inserting hook holds carrier(s) {' '.join(map(str, self.hook))}",
+            )
         elif not self.hook_stitched:
             self._report("hook", f"`{op}` before any stitch with the hooked carrier(s)")
         self.hook = ()
@@ -309,19 +362,24 @@ class Simulator:
         held = [c for c in op.carriers if c in self.hook]
         if held or (op.kind == "outhook" and self.hook):
             which = " ".join(map(str, held or self.hook))
-            self._report("hook", f"`{op}` while carrier(s) {which} are still on the inserting "
-                         "hook (releasehook first)")
+            self._report(
+                "hook",
+                f"`{op}` while carrier(s) {which} are still on the inserting "
+                "hook (releasehook first)",
+            )
             self.hook = ()
         for c in op.carriers:
             s = self.state.get(c, _OUT)
             if s == _OUT:
                 if c not in self.not_in:
                     self.not_in.add(c)
-                    self._report("carrier_not_in", f"`{op}` takes out carrier {c}, which is "
-                                 "not in")
+                    self._report("carrier_not_in", f"`{op}` takes out carrier {c}, which is not in")
             elif s == _PENDING or c not in self.stitched:
-                self._report("carrier_state", f"`{op}` takes out carrier {c}, which never "
-                             "made a stitch since it was brought in")
+                self._report(
+                    "carrier_state",
+                    f"`{op}` takes out carrier {c}, which never "
+                    "made a stitch since it was brought in",
+                )
             self.state[c] = _OUT
             self.anchor.pop(c, None)
             self.last_use[c] = self._i
@@ -352,15 +410,21 @@ class Simulator:
             if prev is not None:
                 dist = abs(n.position(self.racking) - prev.position(self.racking))
                 if dist > self.max_float:
-                    self._report("long_float", f"carrier {c} floats {format_number(dist)} "
-                                 f"needles from {prev} to {n} (more than {self.max_float})")
+                    self._report(
+                        "long_float",
+                        f"carrier {c} floats {format_number(dist)} "
+                        f"needles from {prev} to {n} (more than {self.max_float})",
+                    )
             self.anchor[c] = n
             self.stitched.add(c)
         held = self.loops.get(n, 0)
         if op.kind == "knit":
             if not held:
-                self._report("knit_on_empty", f"`{op}` knits on empty needle {n} "
-                             "(nothing holds the new loop; tuck to cast on)")
+                self._report(
+                    "knit_on_empty",
+                    f"`{op}` knits on empty needle {n} "
+                    "(nothing holds the new loop; tuck to cast on)",
+                )
             self._set(n, 1)
         elif op.kind == "tuck":
             self._set(n, held + 1)
@@ -375,34 +439,54 @@ class Simulator:
         r = float(op.value)  # type: ignore[arg-type]
         limit = self.machine.racking_limit
         if abs(r) > limit:
-            self._report("racking", f"racking {format_number(r)} is beyond the machine's "
-                         f"limit of {limit}")
+            self._report(
+                "racking", f"racking {format_number(r)} is beyond the machine's limit of {limit}"
+            )
         if r - math.floor(r) not in (0.0, 0.25):
-            self._report("racking", f"racking {format_number(r)}: only whole racks and "
-                         "quarter pitch (x.25) are possible")
+            self._report(
+                "racking",
+                f"racking {format_number(r)}: only whole racks and "
+                "quarter pitch (x.25) are possible",
+            )
         self.racking = op.value  # type: ignore[assignment]
 
     # -- the end ------------------------------------------------------------------------------
 
     def _end(self) -> None:
         if self.hook:
-            self._report("hook", "the inserting hook still holds carrier(s) "
-                         f"{' '.join(map(str, self.hook))} at the end (releasehook)",
-                         op=self.hook_op)
+            self._report(
+                "hook",
+                "the inserting hook still holds carrier(s) "
+                f"{' '.join(map(str, self.hook))} at the end (releasehook)",
+                op=self.hook_op,
+            )
         if self.loops:
             needles = sorted(self.loops, key=lambda n: (n.bed, n.index))
             total = sum(self.loops.values())
             shown = " ".join(map(str, needles[:16])) + (" ..." if len(needles) > 16 else "")
             last = max(self.last_touch[n] for n in needles)
-            self._report("loops_left", f"{total} loop(s) left on {len(needles)} needle(s) at "
-                         f"the end: {shown} (drop or bind off)", op=last)
+            self._report(
+                "loops_left",
+                f"{total} loop(s) left on {len(needles)} needle(s) at "
+                f"the end: {shown} (drop or bind off)",
+                op=last,
+            )
         for c in self.active:
-            self._report("carriers_left", f"carrier {c} is still in at the end "
-                         "(take it out with `out` or `outhook`)", op=self.last_use.get(c, -1))
+            self._report(
+                "carriers_left",
+                f"carrier {c} is still in at the end (take it out with `out` or `outhook`)",
+                op=self.last_use.get(c, -1),
+            )
 
 
-def simulate(prog: MachineProgram, *, max_loops: int = 2, max_float: int = 12,
-             check_end: bool = True, limit_per_kind: int = 100) -> list[Finding]:
+def simulate(
+    prog: MachineProgram,
+    *,
+    max_loops: int = 2,
+    max_float: int = 12,
+    check_end: bool = True,
+    limit_per_kind: int = 100,
+) -> list[Finding]:
     """Run `prog` on knitc's machine model; findings in program order (end-state ones last).
 
     max_loops: warn when an op leaves more loops than this on a needle.
@@ -410,12 +494,16 @@ def simulate(prog: MachineProgram, *, max_loops: int = 2, max_float: int = 12,
     check_end: False for a fragment that deliberately leaves loops or carriers.
     limit_per_kind: report at most this many findings of one kind (then one summary).
     """
-    return Simulator(prog, max_loops=max_loops, max_float=max_float, check_end=check_end,
-                     limit_per_kind=limit_per_kind).run()
+    return Simulator(
+        prog,
+        max_loops=max_loops,
+        max_float=max_float,
+        check_end=check_end,
+        limit_per_kind=limit_per_kind,
+    ).run()
 
 
-def add_to_diagnostics(findings: list[Finding], prog: MachineProgram,
-                       diags: Diagnostics) -> None:
+def add_to_diagnostics(findings: list[Finding], prog: MachineProgram, diags: Diagnostics) -> None:
     """Report findings as diagnostics at the DSL span of the op that caused them, with a note
     naming the op (and its stitch)."""
     for f in findings:

@@ -49,10 +49,16 @@ def continues_in_place(gen, s: int) -> int:
     generation's state (`g`, `pos`, `carrying`)."""
     g = gen.g
     kid = int(g.wale_next[s, 0])
-    if (kid < 0 or int(g.wale_next[s, 1]) >= 0 or int(g.wale_prev[kid, 1]) >= 0
-            or g.course_circular[g.course[s]] or g.course_circular[g.course[kid]]
-            or gen.carrying[g.course[s]] or gen.carrying[g.course[kid]]
-            or gen.pos(kid) != gen.pos(s)):
+    if (
+        kid < 0
+        or int(g.wale_next[s, 1]) >= 0
+        or int(g.wale_prev[kid, 1]) >= 0
+        or g.course_circular[g.course[s]]
+        or g.course_circular[g.course[kid]]
+        or gen.carrying[g.course[s]]
+        or gen.carrying[g.course[kid]]
+        or gen.pos(kid) != gen.pos(s)
+    ):
         return -1
     return kid
 

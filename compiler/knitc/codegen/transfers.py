@@ -93,8 +93,9 @@ class Park:
 Step = Xfer | Park
 
 
-def move(bed: Bed, moves: list[Move], *, gauge: int | None = None,
-         free: tuple[int, int] | None = None) -> None:
+def move(
+    bed: Bed, moves: list[Move], *, gauge: int | None = None, free: tuple[int, int] | None = None
+) -> None:
     """Move every loop of `moves` from its needle to its target and return to racking 0.
 
     `gauge` forces the half-gauge (2: park on the other bed's hooks) or full-gauge (1: park
@@ -112,8 +113,9 @@ def move(bed: Bed, moves: list[Move], *, gauge: int | None = None,
     bed.set_rack(0)
 
 
-def plan(bed: Bed, moves: list[Move], *, gauge: int | None = None,
-         free: tuple[int, int] | None = None) -> list[Step]:
+def plan(
+    bed: Bed, moves: list[Move], *, gauge: int | None = None, free: tuple[int, int] | None = None
+) -> list[Step]:
     """The steps `move` would emit, without emitting them (the bed is left as it is).
     Moves of a loop onto its own needle, or from a needle without loops, are dropped."""
     moves = [m for m in moves if m[1] != m[2] and bed.loops.get(m[1], 0)]
@@ -123,6 +125,7 @@ def plan(bed: Bed, moves: list[Move], *, gauge: int | None = None,
 
 
 # ---- carriers -----------------------------------------------------------------------------
+
 
 @dataclass
 class _CarrierTrack:
@@ -147,7 +150,7 @@ def _carriers(bed: Bed) -> dict[int, tuple[float, Pos | None]]:
         t = _CarrierTrack()
         _TRACKS[key] = (weakref.ref(bed.prog, lambda _r: _TRACKS.pop(key, None)), t)
     ops = bed.prog.ops
-    for op in ops[t.seen:]:
+    for op in ops[t.seen :]:
         if op.kind in ("in", "inhook"):
             for c in op.carriers:
                 t.active.add(c)
@@ -168,11 +171,15 @@ def _carriers(bed: Bed) -> dict[int, tuple[float, Pos | None]]:
                 if n == a:
                     t.anchor[c] = b
     t.seen = len(ops)
-    return {c: (float(x), t.anchor.get(c)) for c, x in bed.carrier_at.items()
-            if c in t.active or c not in t.known}
+    return {
+        c: (float(x), t.anchor.get(c))
+        for c, x in bed.carrier_at.items()
+        if c in t.active or c not in t.known
+    }
 
 
 # ---- the planner --------------------------------------------------------------------------
+
 
 @dataclass
 class _Unit:
@@ -219,14 +226,17 @@ def _windings(cycle: list[tuple[Pos, Pos]], fixed: list[int] | tuple = ()) -> li
         best = w[fixed[0]]
     else:
         med = sorted(w)[len(w) // 2]
-        best = min((2 * (med // 2) + k for k in (-2, 0, 2)),
-                   key=lambda e: (sum(abs(x - e) for x in w), abs(e)))
+        best = min(
+            (2 * (med // 2) + k for k in (-2, 0, 2)),
+            key=lambda e: (sum(abs(x - e) for x in w), abs(e)),
+        )
     return [x - best for x in w]
 
 
 class _Planner:
-    def __init__(self, bed: Bed, moves: list[Move], gauge: int | None,
-                 free: tuple[int, int] | None) -> None:
+    def __init__(
+        self, bed: Bed, moves: list[Move], gauge: int | None, free: tuple[int, int] | None
+    ) -> None:
         self.bed = bed
         self.R = bed.max_rack
         self.needles = bed.prog.machine.needles
@@ -234,15 +244,19 @@ class _Planner:
         for s, src, dst in moves:
             for p in (src, dst):
                 if p[0] not in BEDS or not 0 <= p[1] < self.needles:
-                    raise Unsupported(f"the loop of stitch {s} would have to use needle "
-                                      f"{p[0]}{p[1]}, which is not a hook of the bed")
+                    raise Unsupported(
+                        f"the loop of stitch {s} would have to use needle "
+                        f"{p[0]}{p[1]}, which is not a hook of the bed"
+                    )
             u = by_src.get(src)
             if u is None:
                 by_src[src] = _Unit([s], src, dst)
             elif u.goal != dst:
-                raise Unsupported(f"stitches {u.stitch} and {s} share needle {src[0]}"
-                                  f"{src[1]} but go to different needles: a transfer cannot "
-                                  "split the loops of a needle")
+                raise Unsupported(
+                    f"stitches {u.stitch} and {s} share needle {src[0]}"
+                    f"{src[1]} but go to different needles: a transfer cannot "
+                    "split the loops of a needle"
+                )
             else:
                 u.stitches.append(s)
         self.units = list(by_src.values())
@@ -297,8 +311,7 @@ class _Planner:
         """The needles the plan may use: those between the nearest loops of other pieces
         (loops of the moving loops' nodes are part of the cycle, not obstacles)."""
         pieces = {self._piece(s) for u in self.units for s in u.stitches} - {None}
-        self.member = {pos for pos, s in self.fixed.items()
-                       if s >= 0 and self._piece(s) in pieces}
+        self.member = {pos for pos, s in self.fixed.items() if s >= 0 and self._piece(s) in pieces}
         ends = [n for u in self.units for n in (u.pos[1], u.goal[1])]
         lo, hi = min(ends), max(ends)
         left = [p[1] for p in self.fixed if p not in self.member and p[1] < lo]
@@ -440,10 +453,11 @@ class _Planner:
     def why(self) -> str:
         left = [u for u in self.units if not u.home]
         u = min(left, key=lambda u: (id(u) not in self.reason, u.roll == 0))
-        what = (f"the loop of stitch {u.stitch} cannot go from {u.pos[0]}{u.pos[1]} to "
-                f"{u.goal[0]}{u.goal[1]}")
-        return what + ": " + self.reason.get(id(u), "it would have to pass another loop of "
-                                             "its bed")
+        what = (
+            f"the loop of stitch {u.stitch} cannot go from {u.pos[0]}{u.pos[1]} to "
+            f"{u.goal[0]}{u.goal[1]}"
+        )
+        return what + ": " + self.reason.get(id(u), "it would have to pass another loop of its bed")
 
     def commit(self, seq: list[tuple[_Unit, Pos, Pos, int]]) -> None:
         """Append a round given as moves (unit, from, to, racking) in an order that works,
@@ -462,8 +476,11 @@ class _Planner:
             rest: list[tuple[_Unit, Pos, Pos, int]] = []
             for m in pending:
                 u, src, dst, mr = m
-                if mr == r and u.pos == src and (not rest or self.free_at(dst)
-                                                 or self.stackable(u, dst)):
+                if (
+                    mr == r
+                    and u.pos == src
+                    and (not rest or self.free_at(dst) or self.stackable(u, dst))
+                ):
                     self.steps.append(Xfer(src, dst, u.stitch, r))
                     self.relocate(u, dst)
                 else:
@@ -478,8 +495,10 @@ class _Planner:
                 lo, hi = min(ns) - self.R - 1.5, max(ns) + self.R + 1.5
                 options = [t for t in (lo, hi) if -0.5 <= t <= self.needles - 0.5]
                 if not options:
-                    raise Unsupported(f"carrier {c} at {x} is in the way of the transfers and "
-                                      "there is no room to move it aside")
+                    raise Unsupported(
+                        f"carrier {c} at {x} is in the way of the transfers and "
+                        "there is no room to move it aside"
+                    )
                 to = min(options, key=lambda t: abs(t - x))
                 self.steps.append(Park(c, to, lateral[0][0].stitch))
                 self.carriers[c][0] = to
@@ -539,8 +558,12 @@ class _Planner:
             beyond = edge is None or (y - edge) * side > 0
             if not beyond:
                 partners = self.at.get((other, y), ())
-                if not (y == edge and after == 0 and u.goal == (other, y)
-                        and all(self.final_at(v, other, y) for v in partners)):
+                if not (
+                    y == edge
+                    and after == 0
+                    and u.goal == (other, y)
+                    and all(self.final_at(v, other, y) for v in partners)
+                ):
                     continue  # behind the edge, unless stacking onto a decrease partner
             elif not self.free_at((other, y)):
                 continue
@@ -553,7 +576,8 @@ class _Planner:
                 f"to roll it around the {where} end it needs a free needle of the "
                 f"{'back' if other == 'b' else 'front'} bed {where} of needle "
                 f"{edge if edge is not None else x}, within {self.R} needles and the free "
-                f"range {self.lo}..{self.hi}")
+                f"range {self.lo}..{self.hi}"
+            )
             return None
         u.roll = after
         return self.cross(u, (other, best[1]))
@@ -563,8 +587,7 @@ class _Planner:
         that keeps that bed's target order."""
         x = u.pos[1]
         other = u.goal[0]
-        stay = [(n, v) for n, v in self.items(other)
-                if v is None or v.goal[0] == other]
+        stay = [(n, v) for n, v in self.items(other) if v is None or v.goal[0] == other]
         best = None
         for y in range(x - self.R, x + self.R + 1):
             if not self.fits(other, y):
@@ -582,8 +605,10 @@ class _Planner:
                 if best is None or key < best[0]:
                     best = (key, y)
         if best is None:
-            self.reason[id(u)] = (f"no free needle of the other bed within {self.R} needles "
-                                  "keeps the order of that bed")
+            self.reason[id(u)] = (
+                f"no free needle of the other bed within {self.R} needles "
+                "keeps the order of that bed"
+            )
             return None
         return self.cross(u, (other, best[1]))
 
@@ -650,8 +675,9 @@ class _Planner:
         self.commit(parks + returns)
         return True
 
-    def plan_bed(self, bed: str, items: list[tuple[int, _Unit | None]],
-                 ext: dict[str, tuple | None]) -> list[int]:
+    def plan_bed(
+        self, bed: str, items: list[tuple[int, _Unit | None]], ext: dict[str, tuple | None]
+    ) -> list[int]:
         """Where the items of a bed go this round: each unit at most the racking limit
         towards its waypoint, then pulled back until the bed keeps its order. A unit that
         must roll waits where it is unless it leads the way to its end; but when it holds
@@ -677,8 +703,13 @@ class _Planner:
                     continue
                 side = 1 if first[i] > x else -1
                 beyond = range(i + 1, len(items)) if side > 0 else range(i)
-                more |= {j for j in beyond if j not in pushed and items[j][1] is not None
-                         and cast(_Unit, items[j][1]).roll * side > 0}
+                more |= {
+                    j
+                    for j in beyond
+                    if j not in pushed
+                    and items[j][1] is not None
+                    and cast(_Unit, items[j][1]).roll * side > 0
+                }
             if not more:
                 return want
             for j in more:
@@ -695,8 +726,9 @@ class _Planner:
             for i in range(len(items) - 1):
                 (xa, a), (xb, b) = items[i], items[i + 1]
                 na, nb = want[i], want[i + 1]
-                if na < nb or (na == nb and self.final_at(a, bed, na)
-                               and self.final_at(b, bed, nb)):
+                if na < nb or (
+                    na == nb and self.final_at(a, bed, na) and self.final_at(b, bed, nb)
+                ):
                     continue
                 if na > xa:
                     stack = na >= nb and self.final_at(a, bed, nb) and self.final_at(b, bed, nb)
@@ -714,6 +746,9 @@ class _Planner:
                         self.reason[id(b)] = self.blocker(b, a, xa)
 
     def blocker(self, u: _Unit, v: _Unit | None, n: int) -> str:
-        who = f"stitch {v.stitch}" if v is not None else (
-            f"stitch {self.fixed.get((u.pos[0], n), -1)}, which does not move")
+        who = (
+            f"stitch {v.stitch}"
+            if v is not None
+            else (f"stitch {self.fixed.get((u.pos[0], n), -1)}, which does not move")
+        )
         return f"the loop on {u.pos[0]}{n} ({who}) is in the way"

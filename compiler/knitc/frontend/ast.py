@@ -53,6 +53,7 @@ class Ident(Node):
 
 # ---- expressions ---------------------------------------------------------------------------
 
+
 @dataclass(frozen=True, slots=True)
 class Number(Node):
     value: int | float
@@ -171,12 +172,28 @@ class Index(Node):
     index: Expr
 
 
-Expr = (Number | String | Bool | Grid | ParamRef | PropRef | Name | ListExpr | Profile | TupleExpr
-        | Unary | Binary | Call | Attr | Index)
+Expr = (
+    Number
+    | String
+    | Bool
+    | Grid
+    | ParamRef
+    | PropRef
+    | Name
+    | ListExpr
+    | Profile
+    | TupleExpr
+    | Unary
+    | Binary
+    | Call
+    | Attr
+    | Index
+)
 Arg = Expr | Range | KwArg
 
 
 # ---- declarations ----------------------------------------------------------------------------
+
 
 @dataclass(frozen=True, slots=True)
 class Prop(Node):
@@ -255,6 +272,7 @@ class ParamDef(Node):
 
 # ---- pattern layers ------------------------------------------------------------------------
 
+
 @dataclass(frozen=True, slots=True)
 class SetStmt(Node):
     """`set P where q`: write a pattern instruction on the selected stitches."""
@@ -314,6 +332,7 @@ class PatternDef(Node):
 
 
 # ---- statements (shaper programs and action steps) ------------------------------------------
+
 
 @dataclass(frozen=True, slots=True)
 class Block(Node):
@@ -379,8 +398,19 @@ class ShaperDef(Node):
     body: Block
 
 
-Item = (Import | ParamDecl | MachineDecl | NodeDecl | ItfStmt | Connect | Start | PatternLayer
-        | PatternDef | ActionDef | ShaperDef)
+Item = (
+    Import
+    | ParamDecl
+    | MachineDecl
+    | NodeDecl
+    | ItfStmt
+    | Connect
+    | Start
+    | PatternLayer
+    | PatternDef
+    | ActionDef
+    | ShaperDef
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -397,6 +427,7 @@ class Module(Node):
 
 
 # ---- stable JSON (`knitc --emit ast`) ----------------------------------------------------------
+
 
 def to_json(value: Any) -> Any:
     """A deterministic, JSON-ready view of an AST (or any part of it)."""

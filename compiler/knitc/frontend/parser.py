@@ -30,16 +30,44 @@ from knitc.resources import grammar_text
 from knitc.source import SourceFile, Span
 
 # Word-like terminals that must fall back to NAME where the parser cannot take them.
-_KEYWORD_TYPES = frozenset({
-    "KW_SHAPER", "KW_START", "KW_IMPORT", "KW_PARAM", "KW_MACHINE", "KW_PATTERN", "KW_ACTION",
-    "KW_OPEN", "KW_CLOSED", "KW_SET", "KW_USE", "KW_APPLY", "KW_WHERE", "KW_LET",
-    "NODE_KIND", "GRID_MODE", "STEP", "INSTR",
-})
+_KEYWORD_TYPES = frozenset(
+    {
+        "KW_SHAPER",
+        "KW_START",
+        "KW_IMPORT",
+        "KW_PARAM",
+        "KW_MACHINE",
+        "KW_PATTERN",
+        "KW_ACTION",
+        "KW_OPEN",
+        "KW_CLOSED",
+        "KW_SET",
+        "KW_USE",
+        "KW_APPLY",
+        "KW_WHERE",
+        "KW_LET",
+        "NODE_KIND",
+        "GRID_MODE",
+        "STEP",
+        "INSTR",
+    }
+)
 
 # Words that open a top-level item: a line starting with one of them at brace depth 0
 # begins a new statement for error recovery.
-_TOP_LEVEL_WORDS = ("import", "param", "machine", "sheet", "tube", "joint", "split", "pattern",
-                    "action", "shaper", "start")
+_TOP_LEVEL_WORDS = (
+    "import",
+    "param",
+    "machine",
+    "sheet",
+    "tube",
+    "joint",
+    "split",
+    "pattern",
+    "action",
+    "shaper",
+    "start",
+)
 
 
 def _can_shift(parse_table, state_stack: list[int], token_type: str) -> bool:
@@ -94,8 +122,9 @@ class _ContextualKeywords:
         for tok in self.inner.lex(lexer_state, parser_state):
             assert tok.end_pos is not None  # the lexer sets every token's positions
             if tok.type in _KEYWORD_TYPES and (
-                    not _can_shift(table, parser_state.state_stack, tok.type)
-                    or _dot_next(_text(lexer_state), tok.end_pos)):
+                not _can_shift(table, parser_state.state_stack, tok.type)
+                or _dot_next(_text(lexer_state), tok.end_pos)
+            ):
                 if _can_shift(table, parser_state.state_stack, "NAME"):
                     tok = Token.new_borrow_pos("NAME", tok.value, tok)
             yield tok
@@ -120,8 +149,14 @@ def _on_comment(tok: Token) -> Token:
 
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
-    parser = Lark(grammar_text(), parser="lalr", lexer="contextual", propagate_positions=True,
-                  maybe_placeholders=True, lexer_callbacks={"COMMENT": _on_comment})
+    parser = Lark(
+        grammar_text(),
+        parser="lalr",
+        lexer="contextual",
+        propagate_positions=True,
+        maybe_placeholders=True,
+        lexer_callbacks={"COMMENT": _on_comment},
+    )
     parser.parser.lexer = _ContextualKeywords(parser.parser.lexer)
     return parser
 
@@ -146,6 +181,7 @@ class _SyntaxProblem(Exception):
 def _binary(op: str):
     def build(self, meta, ch):
         return ast.Binary(op, ch[0], ch[1], span=self._span(meta))
+
     return build
 
 
@@ -357,7 +393,8 @@ class _ToAst(Transformer):
         for line in lines:
             cells = tuple(
                 ast.GridCell(m.group(), span=self.source.span(offset + m.start(), offset + m.end()))
-                for m in re.finditer(r"\S+", line))
+                for m in re.finditer(r"\S+", line)
+            )
             rows.append(cells)
             offset += len(line) + 1
         while rows and not rows[0]:
@@ -392,8 +429,11 @@ class _ToAst(Transformer):
         if any(points):
             bad = next(i for i in items if not isinstance(i, ast.ProfilePoint))
             raise _SyntaxProblem(
-                "E104", "a profile mixes `t: value` points with plain values", bad.span,
-                "write every entry of a width profile as `t: value`, e.g. [0: 20, 1: 12]")
+                "E104",
+                "a profile mixes `t: value` points with plain values",
+                bad.span,
+                "write every entry of a width profile as `t: value`, e.g. [0: 20, 1: 12]",
+            )
         return ast.ListExpr(tuple(items), span=span)
 
     def items(self, meta, ch):
@@ -422,21 +462,58 @@ class _ToAst(Transformer):
 # ---- error messages ---------------------------------------------------------------------
 
 _TERMINAL_WORDS = {
-    "NAME": "a name", "NUMBER": "a number", "STRING": "a string", "GRID": 'a """grid"""',
-    "PARAM_REF": "a parameter (#name)", "PROP_REF": "a property reference (@name)",
+    "NAME": "a name",
+    "NUMBER": "a number",
+    "STRING": "a string",
+    "GRID": 'a """grid"""',
+    "PARAM_REF": "a parameter (#name)",
+    "PROP_REF": "a property reference (@name)",
     "INSTR": "an instruction (K, P, T, M, FR1, XR+, S, ...)",
     "NODE_KIND": "`sheet`, `tube`, `joint` or `split`",
-    "GRID_MODE": "`draw`, `stretch` or `tile`", "STEP": "`pre`, `main` or `post`",
-    "LBRACE": "`{`", "RBRACE": "`}`", "LPAR": "`(`", "RPAR": "`)`", "LSQB": "`[`",
-    "RSQB": "`]`", "COLON": "`:`", "COMMA": "`,`", "DOT": "`.`", "EQUAL": "`=`",
-    "MINUS": "`-`", "CIRCUMFLEX": "`^`", "__ANON_0": "`->`", "COMP_OP": "a comparison",
-    "PLUS": "`+`", "STAR": "`*`", "SLASH": "`/`", "PERCENT": "`%`", "$END": "the end of the file",
-    "IF": "`if`", "ELSE": "`else`", "FOR": "`for`", "IN": "`in`", "AND": "`and`",
-    "OR": "`or`", "NOT": "`not`", "TRUE": "`true`", "FALSE": "`false`",
+    "GRID_MODE": "`draw`, `stretch` or `tile`",
+    "STEP": "`pre`, `main` or `post`",
+    "LBRACE": "`{`",
+    "RBRACE": "`}`",
+    "LPAR": "`(`",
+    "RPAR": "`)`",
+    "LSQB": "`[`",
+    "RSQB": "`]`",
+    "COLON": "`:`",
+    "COMMA": "`,`",
+    "DOT": "`.`",
+    "EQUAL": "`=`",
+    "MINUS": "`-`",
+    "CIRCUMFLEX": "`^`",
+    "__ANON_0": "`->`",
+    "COMP_OP": "a comparison",
+    "PLUS": "`+`",
+    "STAR": "`*`",
+    "SLASH": "`/`",
+    "PERCENT": "`%`",
+    "$END": "the end of the file",
+    "IF": "`if`",
+    "ELSE": "`else`",
+    "FOR": "`for`",
+    "IN": "`in`",
+    "AND": "`and`",
+    "OR": "`or`",
+    "NOT": "`not`",
+    "TRUE": "`true`",
+    "FALSE": "`false`",
 }
 _EXPR_START = {"NAME", "NUMBER", "STRING", "PARAM_REF", "PROP_REF", "LSQB", "LPAR"}
-_OPERATORS = {"PLUS", "MINUS", "STAR", "SLASH", "PERCENT", "COMP_OP", "CIRCUMFLEX", "DOT",
-              "AND", "OR"}
+_OPERATORS = {
+    "PLUS",
+    "MINUS",
+    "STAR",
+    "SLASH",
+    "PERCENT",
+    "COMP_OP",
+    "CIRCUMFLEX",
+    "DOT",
+    "AND",
+    "OR",
+}
 
 
 def _word(terminal: str) -> str:
@@ -446,8 +523,16 @@ def _word(terminal: str) -> str:
 
 
 _LAYER_START = {"KW_SET", "KW_USE", "KW_APPLY", "GRID_MODE", "KW_LET"}
-_TOP_START = {"KW_IMPORT", "KW_PARAM", "KW_MACHINE", "NODE_KIND", "KW_PATTERN", "KW_ACTION",
-              "KW_SHAPER", "KW_START"}
+_TOP_START = {
+    "KW_IMPORT",
+    "KW_PARAM",
+    "KW_MACHINE",
+    "NODE_KIND",
+    "KW_PATTERN",
+    "KW_ACTION",
+    "KW_SHAPER",
+    "KW_START",
+}
 _LAYER_WORDS = ("set", "use", "apply", "draw", "stretch", "tile", "let")
 
 
@@ -502,8 +587,10 @@ def _hint(tok: Token, expected: set[str]) -> str | None:
     if text == "}" and "NAME" in expected and "NUMBER" in expected:
         return "an expression is missing before `}` (e.g. a query after `where`)"
     if tok.type == "NAME" and "INSTR" in expected:
-        return ("`set` takes one of the 17 instructions: K P T M FR1 FR2 FL1 FL2 BR1 BR2 "
-                "BL1 BL2 XR+ XR- XL+ XL- S; use `use NAME` for a stitch action")
+        return (
+            "`set` takes one of the 17 instructions: K P T M FR1 FR2 FL1 FL2 BR1 BR2 "
+            "BL1 BL2 XR+ XR- XL+ XL- S; use `use NAME` for a stitch action"
+        )
     return None
 
 
@@ -592,26 +679,36 @@ def _open_brackets(text: str, start: int, end: int) -> list[int]:
     return stack
 
 
-def _report(err: UnexpectedInput, source: SourceFile, diags: Diagnostics,
-            chunk: _Chunk | None) -> None:
+def _report(
+    err: UnexpectedInput, source: SourceFile, diags: Diagnostics, chunk: _Chunk | None
+) -> None:
     text = source.text
     if chunk is not None:
-        first = re.match(r"\s*([A-Za-z_]\w*)", text[chunk.start:chunk.end])
+        first = re.match(r"\s*([A-Za-z_]\w*)", text[chunk.start : chunk.end])
         if first and first.group(1) in _LAYER_WORDS and not isinstance(err, UnexpectedCharacters):
             at = chunk.start + first.start(1)
             word = first.group(1)
-            diags.error("E109", f"`{word}` only appears inside a pattern block",
-                        source.span(at, at + len(word)),
-                        hint=f"write it inside `pattern NODE {{ ... }}`, e.g. "
-                             f"`pattern body {{ {word} ... }}`")
+            diags.error(
+                "E109",
+                f"`{word}` only appears inside a pattern block",
+                source.span(at, at + len(word)),
+                hint=f"write it inside `pattern NODE {{ ... }}`, e.g. "
+                f"`pattern body {{ {word} ... }}`",
+            )
             return
-    if isinstance(err, UnexpectedToken) and err.token.type == "$END" or isinstance(
-            err, UnexpectedEOF):
+    if (
+        isinstance(err, UnexpectedToken)
+        and err.token.type == "$END"
+        or isinstance(err, UnexpectedEOF)
+    ):
         if chunk is not None and chunk.unclosed is not None:
             opener = source.text[chunk.unclosed]
-            diags.error("E102", f"unclosed `{opener}`", source.span(chunk.unclosed,
-                                                                     chunk.unclosed + 1),
-                        hint=f"add `{_OPEN[opener]}` to close it")
+            diags.error(
+                "E102",
+                f"unclosed `{opener}`",
+                source.span(chunk.unclosed, chunk.unclosed + 1),
+                hint=f"add `{_OPEN[opener]}` to close it",
+            )
             return
         stop = chunk.end if chunk is not None else len(source.text)
         end = len(source.text[:stop].rstrip())
@@ -619,24 +716,32 @@ def _report(err: UnexpectedInput, source: SourceFile, diags: Diagnostics,
         last = re.search(r"(\S+)\s*$", source.text[:end])
         start = last.start(1) if last else max(end - 1, 0)
         what = "end of file" if not source.text[stop:].strip() else "end of statement"
-        stmt = source.text[chunk.start:stop] if chunk is not None else source.text
+        stmt = source.text[chunk.start : stop] if chunk is not None else source.text
         hint = None
         if m := re.search(r"\bclosed\s+([A-Za-z_]\w*)\s*$", stmt):
             hint = f"write the closing mode in parentheses: `closed({m.group(1)})`"
         elif m := re.search(r"\bstart\s+([A-Za-z_]\w*)\s*$", stmt):
             hint = f"the yarn starts at an interface, e.g. `start {m.group(1)}.bottom`"
-        diags.error("E101", f"unexpected {what}; expected {_describe_expected(expected)}",
-                    source.span(start, end), hint=hint)
+        diags.error(
+            "E101",
+            f"unexpected {what}; expected {_describe_expected(expected)}",
+            source.span(start, end),
+            hint=hint,
+        )
         return
     if isinstance(err, UnexpectedToken):
         tok = err.token
         expected = set(err.accepts or err.expected)
-        span = source.span(tok.start_pos, tok.end_pos if tok.end_pos is not None
-                           else tok.start_pos + len(str(tok)))
+        span = source.span(
+            tok.start_pos, tok.end_pos if tok.end_pos is not None else tok.start_pos + len(str(tok))
+        )
         if text.startswith("/*", tok.start_pos):
-            diags.error("E107", "unterminated comment", source.span(tok.start_pos,
-                                                                    tok.start_pos + 2),
-                        hint="close it with `*/`")
+            diags.error(
+                "E107",
+                "unterminated comment",
+                source.span(tok.start_pos, tok.start_pos + 2),
+                hint="close it with `*/`",
+            )
             return
         base = chunk.start if chunk is not None else 0
         opened = _open_brackets(text, base, tok.start_pos)
@@ -646,15 +751,22 @@ def _report(err: UnexpectedInput, source: SourceFile, diags: Diagnostics,
             closes_other = str(tok) in ")]}" and str(tok) != closer
             later_line = source.position(opened[-1])[0] < source.position(tok.start_pos)[0]
             if closes_other or (later_line and {"RPAR", "RSQB"} & expected):
-                diags.error("E102", f"unclosed `{opener}`",
-                            source.span(opened[-1], opened[-1] + 1),
-                            hint=f"add `{closer}` to close it")
+                diags.error(
+                    "E102",
+                    f"unclosed `{opener}`",
+                    source.span(opened[-1], opened[-1] + 1),
+                    hint=f"add `{closer}` to close it",
+                )
                 return
         if str(tok) == "}" and not opened:
             diags.error("E103", "unmatched `}`", span, hint="remove it, or open a block with `{`")
             return
-        diags.error("E101", f"unexpected {_found(tok)}; expected {_describe_expected(expected)}",
-                    span, hint=_hint(tok, expected))
+        diags.error(
+            "E101",
+            f"unexpected {_found(tok)}; expected {_describe_expected(expected)}",
+            span,
+            hint=_hint(tok, expected),
+        )
         return
     assert isinstance(err, UnexpectedCharacters)
     pos = err.pos_in_stream
@@ -663,22 +775,35 @@ def _report(err: UnexpectedInput, source: SourceFile, diags: Diagnostics,
     span = source.span(pos, pos + 1)
     if source.text.startswith('"""', pos) or source.text.startswith('"""', pos - 2):
         at = pos if source.text.startswith('"""', pos) else pos - 2
-        diags.error("E108", "unterminated grid", source.span(at, at + 3),
-                    hint='close the grid with `"""`')
+        diags.error(
+            "E108", "unterminated grid", source.span(at, at + 3), hint='close the grid with `"""`'
+        )
     elif source.text.startswith("/*", pos):
-        diags.error("E107", "unterminated comment", source.span(pos, pos + 2),
-                    hint="close it with `*/`")
+        diags.error(
+            "E107", "unterminated comment", source.span(pos, pos + 2), hint="close it with `*/`"
+        )
     elif char == '"':
-        diags.error("E105", "unterminated string", span,
-                    hint='close it with `"` on the same line, or use """...""" for a grid')
+        diags.error(
+            "E105",
+            "unterminated string",
+            span,
+            hint='close it with `"` on the same line, or use """...""" for a grid',
+        )
     elif char == ";":
-        diags.error("E100", "unexpected `;`", span,
-                    hint="knitc needs no `;`: separate statements and properties with "
-                         "newlines, spaces or `,`")
+        diags.error(
+            "E100",
+            "unexpected `;`",
+            span,
+            hint="knitc needs no `;`: separate statements and properties with "
+            "newlines, spaces or `,`",
+        )
     elif char == "#" or char == "@":
-        diags.error("E106", f"`{char}` must be followed by a name", span,
-                    hint="write `#param` for a design parameter, `@prop` or `@node.prop` for "
-                         "a property")
+        diags.error(
+            "E106",
+            f"`{char}` must be followed by a name",
+            span,
+            hint="write `#param` for a design parameter, `@prop` or `@node.prop` for a property",
+        )
     else:
         diags.error("E100", f"unexpected character `{char}`", span)
 
@@ -705,7 +830,8 @@ def parse_source(source: SourceFile, diags: Diagnostics) -> ast.Module | None:
         raise
     comment_nodes = tuple(
         ast.Comment(str(c), span=source.span(c.start_pos, c.end_pos))  # type: ignore[arg-type]
-        for c in comments)
+        for c in comments
+    )
     return ast.Module(module.items, comment_nodes, span=module.span)
 
 
@@ -721,7 +847,7 @@ def _parse(text: str, comments: list[Token]):
 def _recover(source: SourceFile, diags: Diagnostics) -> None:
     text = source.text
     for chunk in _chunks(text):
-        padded = re.sub(r"[^\n]", " ", text[:chunk.start]) + text[chunk.start:chunk.end]
+        padded = re.sub(r"[^\n]", " ", text[: chunk.start]) + text[chunk.start : chunk.end]
         try:
             _parse(padded, [])
         except UnexpectedInput as err:

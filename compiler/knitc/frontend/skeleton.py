@@ -55,9 +55,14 @@ MACHINE_PROPS: dict[str, PropSpec] = {
     "increase": PropSpec("choice", "kickback", INCREASES, doc="default increase type"),
     "cast_on": PropSpec("choice", "interlock", CAST_ONS, doc="default cast-on"),
     "cast_off": PropSpec("choice", "pickup", CAST_OFFS, doc="default cast-off"),
-    "slice_shaping": PropSpec("int", 0, min=0, max=1000,
-                              doc="increases + decreases knitted per bed slice "
-                                  "(0 = 2 on a flat slice, 4 on a tubular one)"),
+    "slice_shaping": PropSpec(
+        "int",
+        0,
+        min=0,
+        max=1000,
+        doc="increases + decreases knitted per bed slice "
+        "(0 = 2 on a flat slice, 4 on a tubular one)",
+    ),
 }
 
 COMMON_PROPS: dict[str, PropSpec] = {
@@ -91,8 +96,7 @@ SPLIT_PROPS: dict[str, PropSpec] = {
     "layout": PropSpec("split_layout", "auto", min=0, max=1),
 }
 
-NODE_PROPS = {"sheet": SHEET_PROPS, "tube": TUBE_PROPS, "joint": JOINT_PROPS,
-              "split": SPLIT_PROPS}
+NODE_PROPS = {"sheet": SHEET_PROPS, "tube": TUBE_PROPS, "joint": JOINT_PROPS, "split": SPLIT_PROPS}
 
 ITF_PROPS: dict[str, PropSpec] = {
     "cast_on": PropSpec("choice", "auto", ("auto",) + CAST_ONS),
@@ -231,12 +235,15 @@ class Skeleton:
     def components(self) -> list[list[str]]:
         """Node names of each connected garment, in declaration order."""
         order = {n: i for i, n in enumerate(self.nodes)}
-        comps = [sorted((n for n in c if n in order), key=order.__getitem__)
-                 for c in nx.connected_components(self.graph())]
+        comps = [
+            sorted((n for n in c if n in order), key=order.__getitem__)
+            for c in nx.connected_components(self.graph())
+        ]
         return sorted(comps, key=lambda c: order[c[0]])
 
 
 # ---- sizes and sides ------------------------------------------------------------------------
+
 
 def _width_at(node: PrimNode, t: float) -> int:
     w = node.props["width"]
@@ -295,11 +302,13 @@ def infer_sizes(skel: Skeleton) -> None:
                 if all(b.size is not None for b in branches):
                     all_sides = {b.sides for b in branches}
                     folded_sides = all_sides.pop() if len(all_sides) == 1 else None
-                    set_(base, sum(b.size for b in branches if b.size is not None),
-                         folded_sides if node.props["folded"] else None)
+                    set_(
+                        base,
+                        sum(b.size for b in branches if b.size is not None),
+                        folded_sides if node.props["folded"] else None,
+                    )
                 unknown = [b for b in branches if b.size is None]
-                if base.size is not None and len(unknown) == 1 and \
-                        unknown[0].state != "connected":
+                if base.size is not None and len(unknown) == 1 and unknown[0].state != "connected":
                     rest = base.size - sum(b.size for b in branches if b.size is not None)
                     if rest > 0:  # an open branch takes what the others leave (original)
                         set_(unknown[0], rest, None)
@@ -341,6 +350,7 @@ def binding(skel: Skeleton, a: ItfId, b: ItfId) -> str:
 
 # ---- verifier -----------------------------------------------------------------------------
 
+
 def verify(skel: Skeleton, diags: Diagnostics) -> None:
     """Check the skeleton's topology; report located errors and warnings."""
     seen: dict[ItfId, Connection] = {}
@@ -350,18 +360,29 @@ def verify(skel: Skeleton, diags: Diagnostics) -> None:
         for end in (c.a, c.b):
             if end in seen:
                 first = seen[end]
-                diags.error("E501", f"interface `{end}` is connected twice", c.span,
-                            notes=[Note("first connected here", first.span)],
-                            hint="each interface joins at most one other; use a split to "
-                                 "join several")
+                diags.error(
+                    "E501",
+                    f"interface `{end}` is connected twice",
+                    c.span,
+                    notes=[Note("first connected here", first.span)],
+                    hint="each interface joins at most one other; use a split to join several",
+                )
                 bad = True
             elif skel.interfaces[end].state == "closed":
-                diags.error("E502", f"interface `{end}` is closed and cannot be connected",
-                            c.span, notes=[Note("closed here", skel.interfaces[end].span)])
+                diags.error(
+                    "E502",
+                    f"interface `{end}` is closed and cannot be connected",
+                    c.span,
+                    notes=[Note("closed here", skel.interfaces[end].span)],
+                )
                 bad = True
         if c.a == c.b or c.a.node == c.b.node:
-            diags.error("E503", f"`{c.a}` and `{c.b}` belong to the same node", c.span,
-                        hint="a node cannot be connected to itself")
+            diags.error(
+                "E503",
+                f"`{c.a}` and `{c.b}` belong to the same node",
+                c.span,
+                hint="a node cannot be connected to itself",
+            )
             bad = True
         for end in (c.a, c.b):
             seen.setdefault(end, c)
@@ -378,23 +399,36 @@ def verify(skel: Skeleton, diags: Diagnostics) -> None:
         if c.a.node in skel.tainted or c.b.node in skel.tainted:
             continue
         kind = binding(skel, c.a, c.b)
-        if kind == "spread" and skel.nodes[c.a.node].props.get("gauge") != \
-                skel.nodes[c.b.node].props.get("gauge"):
-            diags.warning("W502", f"width mismatch across a gauge change: `{a.id}` and "
-                          f"`{b.id}` have neither the same stitches ({a.size}, {b.size}) nor "
-                          "the same needle span", c.span,
-                          hint="across a gauge change, a half-gauge side needs the same "
-                               "stitches or half those of the full-gauge side")
+        if kind == "spread" and skel.nodes[c.a.node].props.get("gauge") != skel.nodes[
+            c.b.node
+        ].props.get("gauge"):
+            diags.warning(
+                "W502",
+                f"width mismatch across a gauge change: `{a.id}` and "
+                f"`{b.id}` have neither the same stitches ({a.size}, {b.size}) nor "
+                "the same needle span",
+                c.span,
+                hint="across a gauge change, a half-gauge side needs the same "
+                "stitches or half those of the full-gauge side",
+            )
         elif kind == "close":
             big, small = (a, b) if a.size > b.size else (b, a)
-            diags.warning("W501", f"`{big.id}` has {big.size} stitches and `{small.id}` has "
-                          f"{small.size}: the tube is closed 2:1 before the merge", c.span,
-                          hint="make both sides the same size to merge them stitch by stitch")
+            diags.warning(
+                "W501",
+                f"`{big.id}` has {big.size} stitches and `{small.id}` has "
+                f"{small.size}: the tube is closed 2:1 before the merge",
+                c.span,
+                hint="make both sides the same size to merge them stitch by stitch",
+            )
         elif kind == "spread":
-            diags.warning("W502", f"size mismatch: `{a.id}` has {a.size} stitches, `{b.id}` "
-                          f"has {b.size}; the extra stitches are spread without wales", c.span,
-                          hint="make both sides the same size, or put a sheet with a width "
-                               "profile between them to shape the transition")
+            diags.warning(
+                "W502",
+                f"size mismatch: `{a.id}` has {a.size} stitches, `{b.id}` "
+                f"has {b.size}; the extra stitches are spread without wales",
+                c.span,
+                hint="make both sides the same size, or put a sheet with a width "
+                "profile between them to shape the transition",
+            )
 
     for node in skel.nodes.values():
         if node.name in skel.tainted:
@@ -405,31 +439,49 @@ def verify(skel: Skeleton, diags: Diagnostics) -> None:
             if base.size is not None and all(b.size is not None for b in branches):
                 total = sum(b.size for b in branches if b.size is not None)
                 if total > base.size:
-                    diags.error("E504", f"the branches of split `{node.name}` need {total} "
-                                f"stitches but its base has {base.size}", node.span,
-                                hint="widen the node at the base or narrow the branches")
+                    diags.error(
+                        "E504",
+                        f"the branches of split `{node.name}` need {total} "
+                        f"stitches but its base has {base.size}",
+                        node.span,
+                        hint="widen the node at the base or narrow the branches",
+                    )
         if node.kind == "joint":
             bot, top = paths
             if bot.size is not None and top.size is not None and bot.size != top.size:
-                diags.error("E509", f"joint `{node.name}` joins {bot.size} stitches at its "
-                            f"bottom to {top.size} at its top", node.span,
-                            hint="short rows keep the course size: make both neighbours the "
-                                 "same size, and shape with a sheet's width profile instead")
+                diags.error(
+                    "E509",
+                    f"joint `{node.name}` joins {bot.size} stitches at its "
+                    f"bottom to {top.size} at its top",
+                    node.span,
+                    hint="short rows keep the course size: make both neighbours the "
+                    "same size, and shape with a sheet's width profile instead",
+                )
         if node.kind == "sheet" and node.tubular is None and paths[0].sides is None:
-            diags.error("E510", f"cannot tell whether `{node.name}` is flat or tubular",
-                        node.span, hint="connect it to a flat or tubular neighbour, or set "
-                                        "`type: flat` or `type: cylinder`")
+            diags.error(
+                "E510",
+                f"cannot tell whether `{node.name}` is flat or tubular",
+                node.span,
+                hint="connect it to a flat or tubular neighbour, or set "
+                "`type: flat` or `type: cylinder`",
+            )
             continue
         for itf in paths:
             if itf.size is None and node.kind in ("joint", "split"):
-                diags.error("E505", f"cannot infer the size of `{itf.id}`", node.span,
-                            hint=f"connect `{itf.id}` to a sheet or tube, which fixes its "
-                                 "size")
+                diags.error(
+                    "E505",
+                    f"cannot infer the size of `{itf.id}`",
+                    node.span,
+                    hint=f"connect `{itf.id}` to a sheet or tube, which fixes its size",
+                )
                 break
             if itf.state == "closed" and itf.sides == 1:
-                diags.warning("W503", f"closing the flat interface `{itf.id}` has no effect",
-                              itf.span, hint="only tubular interfaces are closed; a flat "
-                                             "edge is cast off")
+                diags.warning(
+                    "W503",
+                    f"closing the flat interface `{itf.id}` has no effect",
+                    itf.span,
+                    hint="only tubular interfaces are closed; a flat edge is cast off",
+                )
 
     _check_starts(skel, diags)
 
@@ -440,32 +492,48 @@ def _check_starts(skel: Skeleton, diags: Diagnostics) -> None:
         by_node.setdefault(s.itf.node, []).append(s)
         itf = skel.interfaces[s.itf]
         if itf.state == "connected":
-            diags.error("E506", f"the yarn cannot start at `{s.itf}`, which is connected",
-                        s.span, hint="start at an open or closed end of the garment")
+            diags.error(
+                "E506",
+                f"the yarn cannot start at `{s.itf}`, which is connected",
+                s.span,
+                hint="start at an open or closed end of the garment",
+            )
     starts: list[YarnStart] = []
     for comp in skel.components():
         declared = [s for n in comp for s in by_node.get(n, [])]
         if len(declared) > 1:
             for extra in declared[1:]:
-                diags.error("E507", "a second yarn start in the same garment", extra.span,
-                            notes=[Note("first start here", declared[0].span)],
-                            hint="each connected garment has one yarn start")
+                diags.error(
+                    "E507",
+                    "a second yarn start in the same garment",
+                    extra.span,
+                    notes=[Note("first start here", declared[0].span)],
+                    hint="each connected garment has one yarn start",
+                )
         if declared:
             starts.append(declared[0])
             continue
-        free = [skel.interfaces[ItfId(n, p)] for n in comp
-                for p in skel.nodes[n].interface_paths
-                if skel.interfaces[ItfId(n, p)].state != "connected"]
+        free = [
+            skel.interfaces[ItfId(n, p)]
+            for n in comp
+            for p in skel.nodes[n].interface_paths
+            if skel.interfaces[ItfId(n, p)].state != "connected"
+        ]
         if not free:
-            diags.error("E508", f"no place to start the yarn in the garment of `{comp[0]}`: "
-                        "every interface is connected", skel.nodes[comp[0]].span,
-                        hint="leave an interface open or closed, and `start` there")
+            diags.error(
+                "E508",
+                f"no place to start the yarn in the garment of `{comp[0]}`: "
+                "every interface is connected",
+                skel.nodes[comp[0]].span,
+                hint="leave an interface open or closed, and `start` there",
+            )
             continue
         starts.append(YarnStart(free[0].id, True, None))
     skel.starts = starts
 
 
 # ---- stable JSON ------------------------------------------------------------------------------
+
 
 def _value_json(v: Any) -> Any:
     if isinstance(v, Profile):
@@ -485,30 +553,57 @@ def to_json(skel: Skeleton) -> dict[str, Any]:
 
     m = skel.machine
     return {
-        "machine": {"model": m.model, "needles": m.needles, "gauge": m.gauge,
-                    "racking": m.racking, "carriers": list(m.carriers),
-                    "increase": m.increase, "cast_on": m.cast_on, "cast_off": m.cast_off},
+        "machine": {
+            "model": m.model,
+            "needles": m.needles,
+            "gauge": m.gauge,
+            "racking": m.racking,
+            "carriers": list(m.carriers),
+            "increase": m.increase,
+            "cast_on": m.cast_on,
+            "cast_off": m.cast_off,
+        },
         "params": {k: _value_json(v) for k, v in skel.params.items()},
         "nodes": [
-            {"name": n.name, "kind": n.kind,
-             "props": {k: _value_json(v) for k, v in n.props.items()},
-             "interfaces": n.interface_paths, "span": n.span.to_json()}
+            {
+                "name": n.name,
+                "kind": n.kind,
+                "props": {k: _value_json(v) for k, v in n.props.items()},
+                "interfaces": n.interface_paths,
+                "span": n.span.to_json(),
+            }
             for n in skel.nodes.values()
         ],
         "interfaces": [
-            {"id": str(i.id), "node": i.id.node, "path": i.id.path, "state": i.state,
-             "closing": i.closing, "cast_on": i.cast_on, "cast_off": i.cast_off,
-             "size": i.size, "sides": i.sides}
+            {
+                "id": str(i.id),
+                "node": i.id.node,
+                "path": i.id.path,
+                "state": i.state,
+                "closing": i.closing,
+                "cast_on": i.cast_on,
+                "cast_off": i.cast_off,
+                "size": i.size,
+                "sides": i.sides,
+            }
             for i in skel.interfaces.values()
         ],
-        "connections": [{"a": str(c.a), "b": str(c.b), "span": c.span.to_json()}
-                        for c in skel.connections],
+        "connections": [
+            {"a": str(c.a), "b": str(c.b), "span": c.span.to_json()} for c in skel.connections
+        ],
         "starts": [{"interface": str(s.itf), "inferred": s.inferred} for s in skel.starts],
         "components": skel.components(),
-        "layers": [{"target": lay.target, "stmt": format_layer_stmt(lay.stmt),
-                    "span": lay.stmt.span.to_json()} for lay in skel.layers],
+        "layers": [
+            {
+                "target": lay.target,
+                "stmt": format_layer_stmt(lay.stmt),
+                "span": lay.stmt.span.to_json(),
+            }
+            for lay in skel.layers
+        ],
         "definitions": {
-            "patterns": sorted(skel.patterns), "actions": sorted(skel.actions),
+            "patterns": sorted(skel.patterns),
+            "actions": sorted(skel.actions),
             "shapers": sorted(skel.shapers),
         },
     }

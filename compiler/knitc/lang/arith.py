@@ -25,7 +25,7 @@ import numpy as np
 LIMIT = 1e300
 """Largest magnitude a computed number may have."""
 
-EXACT = 2 ** 53
+EXACT = 2**53
 """Integers beyond this are carried as floats (what float64 holds exactly)."""
 
 ARITHMETIC = ("+", "-", "*", "/", "%", "^")
@@ -43,6 +43,7 @@ class ArithError(Exception):
 
 
 # ---- one value at a time ----------------------------------------------------------------
+
 
 def scalar(op: str, x: int | float, y: int | float) -> int | float | bool:
     """`x op y` for plain numbers (not booleans); ArithError on a mistake."""
@@ -65,7 +66,7 @@ def scalar(op: str, x: int | float, y: int | float) -> int | float | bool:
         elif op == "%":
             r = x % y
         elif op == "^":
-            r = x ** y
+            r = x**y
         else:
             raise AssertionError(op)
     except (OverflowError, ZeroDivisionError):
@@ -104,34 +105,40 @@ def _show(x: float) -> str:
 
 # ---- every stitch at once ---------------------------------------------------------------
 
+
 def vector(op: str, a: Any, b: Any) -> np.ndarray:
     """`a op b` elementwise over numbers and arrays of numbers; ArithError if any element
     is a mistake (the same mistakes `scalar` refuses)."""
     x = np.asarray(a, dtype=np.float64)
     y = np.asarray(b, dtype=np.float64)
     if op in COMPARISONS:
-        return {"<": np.less, "<=": np.less_equal, ">": np.greater,
-                ">=": np.greater_equal}[op](x, y)
+        return {"<": np.less, "<=": np.less_equal, ">": np.greater, ">=": np.greater_equal}[op](
+            x, y
+        )
     if op in ("/", "%") and np.any(y == 0):
         raise ArithError("division by zero")
     with np.errstate(all="ignore"):
         if op == "^":
             x, y = np.broadcast_arrays(x, y)
-            big = (np.abs(y) > 1024) | ((np.abs(x) > 1) & (np.abs(y) * np.log10(
-                np.where(np.abs(x) > 1, np.abs(x), 1.0)) > 300))
+            big = (np.abs(y) > 1024) | (
+                (np.abs(x) > 1)
+                & (np.abs(y) * np.log10(np.where(np.abs(x) > 1, np.abs(x), 1.0)) > 300)
+            )
             if np.any(big):
                 raise ArithError("number too large")
             bad = (x < 0) & (y != np.floor(y))
             if np.any(bad):
                 i = int(np.argmax(bad))
-                raise ArithError(f"{_show(float(x.flat[i]))} ^ {_show(float(y.flat[i]))} "
-                                 "is not a real number")
+                raise ArithError(
+                    f"{_show(float(x.flat[i]))} ^ {_show(float(y.flat[i]))} is not a real number"
+                )
             if np.any((x == 0) & (y < 0)):
                 raise ArithError("division by zero")
             r = np.power(x, y)
         else:
-            r = {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.true_divide,
-                 "%": np.mod}[op](x, y)
+            r = {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.true_divide, "%": np.mod}[
+                op
+            ](x, y)
     if not np.all(np.isfinite(r)) or np.any(np.abs(r) > LIMIT):
         raise ArithError("number too large")
     return r

@@ -137,8 +137,9 @@ class Evaluator:
     to `Word`s, which property checks turn into enum choices or definition names.
     """
 
-    def __init__(self, param: Callable[[str, Span], Value],
-                 prop: Callable[[str | None, str, Span], Value]):
+    def __init__(
+        self, param: Callable[[str, Span], Value], prop: Callable[[str | None, str, Span], Value]
+    ):
         self.param = param
         self.prop = prop
 
@@ -176,12 +177,20 @@ class Evaluator:
             t = self._number(p.t, "a profile position")
             v = self._number(p.value, "a profile value")
             if not 0 <= t <= 1:
-                raise EvalError("E302", f"profile position {show(t)} is outside [0, 1]", p.t.span,
-                                "positions are fractions of the node's length: 0 is the first "
-                                "course, 1 the last")
+                raise EvalError(
+                    "E302",
+                    f"profile position {show(t)} is outside [0, 1]",
+                    p.t.span,
+                    "positions are fractions of the node's length: 0 is the first "
+                    "course, 1 the last",
+                )
             if pts and t < pts[-1][0]:
-                raise EvalError("E302", "profile positions must increase", p.t.span,
-                                "write the points in order, e.g. [0: 20, 0.5: 15, 1: 12]")
+                raise EvalError(
+                    "E302",
+                    "profile positions must increase",
+                    p.t.span,
+                    "write the points in order, e.g. [0: 20, 0.5: 15, 1: 12]",
+                )
             pts.append((float(t), float(v)))
         return Profile(tuple(pts))
 
@@ -200,14 +209,14 @@ class Evaluator:
         if e.op in ("and", "or"):
             a = self.eval(e.left)
             if not isinstance(a, bool):
-                raise EvalError("E303", f"`{e.op}` needs booleans, got {type_name(a)}",
-                                e.left.span)
+                raise EvalError("E303", f"`{e.op}` needs booleans, got {type_name(a)}", e.left.span)
             if (e.op == "and" and not a) or (e.op == "or" and a):
                 return a
             b = self.eval(e.right)
             if not isinstance(b, bool):
-                raise EvalError("E303", f"`{e.op}` needs booleans, got {type_name(b)}",
-                                e.right.span)
+                raise EvalError(
+                    "E303", f"`{e.op}` needs booleans, got {type_name(b)}", e.right.span
+                )
             return b
         a, b = self.eval(e.left), self.eval(e.right)
         if e.op in ("==", "!="):
@@ -221,8 +230,12 @@ class Evaluator:
 
     def _profile_arith(self, e: ast.Binary, a: Value, b: Value) -> Value:
         if isinstance(a, Profile) and isinstance(b, Profile):
-            raise EvalError("E303", f"cannot combine two profiles with `{e.op}`", e.span,
-                            "scale or shift one profile by a number instead")
+            raise EvalError(
+                "E303",
+                f"cannot combine two profiles with `{e.op}`",
+                e.span,
+                "scale or shift one profile by a number instead",
+            )
         if e.op not in "+-*/":
             raise EvalError("E303", f"`{e.op}` does not apply to a profile", e.span)
         if isinstance(a, Profile):
@@ -236,10 +249,14 @@ class Evaluator:
         if not isinstance(e.func, ast.Name) or e.func.id not in BUILTINS:
             name = e.func.id if isinstance(e.func, ast.Name) else None
             close = difflib.get_close_matches(name or "", list(BUILTINS), n=1, cutoff=0.6)
-            raise EvalError("E201", f"unknown function `{name}`" if name else
-                            "only named functions can be called", e.func.span,
-                            f"did you mean `{close[0]}`?" if close else
-                            "available here: " + ", ".join(sorted(BUILTINS)))
+            raise EvalError(
+                "E201",
+                f"unknown function `{name}`" if name else "only named functions can be called",
+                e.func.span,
+                f"did you mean `{close[0]}`?"
+                if close
+                else "available here: " + ", ".join(sorted(BUILTINS)),
+            )
         fn, (lo, hi) = BUILTINS[e.func.id]
         args = []
         for a in e.args:
@@ -248,13 +265,17 @@ class Evaluator:
             args.append(self._as_number(self.eval(a), a.span, f"`{e.func.id}`"))
         if not lo <= len(args) <= hi:
             want = str(lo) if lo == hi else f"{lo} or more"
-            raise EvalError("E304", f"`{e.func.id}` takes {want} argument(s), got {len(args)}",
-                            e.span)
+            raise EvalError(
+                "E304", f"`{e.func.id}` takes {want} argument(s), got {len(args)}", e.span
+            )
         try:
             return fn(*args)
         except (ValueError, OverflowError):
-            raise EvalError("E305", f"`{e.func.id}` is undefined for "
-                            + ", ".join(show(a) for a in args), e.span) from None
+            raise EvalError(
+                "E305",
+                f"`{e.func.id}` is undefined for " + ", ".join(show(a) for a in args),
+                e.span,
+            ) from None
 
     def _TupleExpr(self, e: ast.TupleExpr) -> Value:
         return tuple(self.eval(i) for i in e.items)
@@ -265,8 +286,9 @@ class Evaluator:
         if not isinstance(obj, tuple):
             raise EvalError("E303", f"cannot index {type_name(obj)}", e.obj.span)
         if not isinstance(i, int) or isinstance(i, bool) or not -len(obj) <= i < len(obj):
-            raise EvalError("E306", f"index {show(i)} is out of range for a list of {len(obj)}",
-                            e.index.span)
+            raise EvalError(
+                "E306", f"index {show(i)} is out of range for a list of {len(obj)}", e.index.span
+            )
         return obj[i]
 
     # -- helpers
@@ -289,6 +311,9 @@ def arith(op: str, x: float, y: float, span: Span) -> int | float | bool:
 
 def _describe(e: ast.Node) -> str:
     return {
-        "Grid": "a drawn grid", "Range": "a range", "KwArg": "a keyword argument",
-        "Attr": "attribute access", "TupleExpr": "a tuple",
+        "Grid": "a drawn grid",
+        "Range": "a range",
+        "KwArg": "a keyword argument",
+        "Attr": "attribute access",
+        "TupleExpr": "a tuple",
     }.get(type(e).__name__, type(e).__name__)

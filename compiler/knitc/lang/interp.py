@@ -67,8 +67,9 @@ class Host:
 class _Scope:
     __slots__ = ("vars", "parent", "readonly")
 
-    def __init__(self, parent: _Scope | None, vars: dict[str, Value] | None = None,
-                 readonly: bool = False):
+    def __init__(
+        self, parent: _Scope | None, vars: dict[str, Value] | None = None, readonly: bool = False
+    ):
         self.vars = vars if vars is not None else {}
         self.parent = parent
         self.readonly = readonly
@@ -121,16 +122,22 @@ class Interpreter(Evaluator):
     `what` names the program in messages, e.g. "shaper `edges`".
     """
 
-    def __init__(self, *, functions: Mapping[str, Host | Callable[..., object]] | None = None,
-                 constants: Mapping[str, Value] | None = None,
-                 words: Collection[str] | None = None,
-                 on_map: Callable[[Value, Value, Span], None] | None = None,
-                 param: Callable[[str, Span], Value] | None = None,
-                 prop: Callable[[str | None, str, Span], Value] | None = None,
-                 budget: int = DEFAULT_BUDGET, what: str = "the program"):
+    def __init__(
+        self,
+        *,
+        functions: Mapping[str, Host | Callable[..., object]] | None = None,
+        constants: Mapping[str, Value] | None = None,
+        words: Collection[str] | None = None,
+        on_map: Callable[[Value, Value, Span], None] | None = None,
+        param: Callable[[str, Span], Value] | None = None,
+        prop: Callable[[str | None, str, Span], Value] | None = None,
+        budget: int = DEFAULT_BUDGET,
+        what: str = "the program",
+    ):
         super().__init__(param or _no_param, prop or _no_prop)
         self.functions: dict[str, Host] = {
-            k: v if isinstance(v, Host) else Host(v) for k, v in (functions or {}).items()}
+            k: v if isinstance(v, Host) else Host(v) for k, v in (functions or {}).items()
+        }
         self.words = None if words is None else frozenset(words)
         self.on_map = on_map
         self.budget = budget
@@ -141,8 +148,9 @@ class Interpreter(Evaluator):
         self._loops: list[tuple[ast.For, int]] = []
 
     # -- entry points
-    def run(self, block: ast.Block, bindings: Mapping[str, Value] | None = None
-            ) -> dict[str, Value]:
+    def run(
+        self, block: ast.Block, bindings: Mapping[str, Value] | None = None
+    ) -> dict[str, Value]:
         """Execute `block` with `bindings` in scope; returns its top-level variables."""
         self._steps = 0
         self._loops = []
@@ -187,12 +195,19 @@ class Interpreter(Evaluator):
         value = self.eval(s.value)
         owner = self._scope.find(name)
         if owner is None:
-            raise EvalError("E222", f"`{name}` is assigned before `let`", s.name.span,
-                            f"declare it first: `let {name} = ...`")
+            raise EvalError(
+                "E222",
+                f"`{name}` is assigned before `let`",
+                s.name.span,
+                f"declare it first: `let {name} = ...`",
+            )
         if owner.readonly:
-            raise EvalError("E317", f"`{name}` is provided by the context and cannot be "
-                            "assigned", s.name.span,
-                            f"work on a copy: `let my_{name} = {name}`")
+            raise EvalError(
+                "E317",
+                f"`{name}` is provided by the context and cannot be assigned",
+                s.name.span,
+                f"work on a copy: `let my_{name} = {name}`",
+            )
         owner.vars[name] = value
 
     def _exec_If(self, s: ast.If) -> None:
@@ -200,8 +215,12 @@ class Interpreter(Evaluator):
         while isinstance(node, ast.If):
             cond = self.eval(node.cond)
             if not isinstance(cond, bool):
-                raise EvalError("E303", f"`if` needs a boolean, got {type_name(cond)}",
-                                node.cond.span, "compare it, e.g. `if i < d { ... }`")
+                raise EvalError(
+                    "E303",
+                    f"`if` needs a boolean, got {type_name(cond)}",
+                    node.cond.span,
+                    "compare it, e.g. `if i < d { ... }`",
+                )
             if cond:
                 self._block(node.then)
                 return
@@ -212,8 +231,12 @@ class Interpreter(Evaluator):
     def _exec_For(self, s: ast.For) -> None:
         items = self.eval(s.iter)
         if not isinstance(items, tuple | range):
-            raise EvalError("E303", f"`for` needs a list or a range, got {type_name(items)}",
-                            s.iter.span, "loop over `range(n)` or a list `[a, b, c]`")
+            raise EvalError(
+                "E303",
+                f"`for` needs a list or a range, got {type_name(items)}",
+                s.iter.span,
+                "loop over `range(n)` or a list `[a, b, c]`",
+            )
         n = len(items)
         self._loops.append((s, n))
         saved = self._scope
@@ -247,10 +270,15 @@ class Interpreter(Evaluator):
             # Blame the longest active loop (the outermost one on ties): without `while` or
             # recursion, only a loop can run away.
             loop, n = max(self._loops, key=lambda ln: ln[1])
-            raise EvalError("E316", f"{self.what} did not finish within {self.budget:,} steps",
-                            loop.span, f"this loop runs {n:,} times; is its bound right?")
-        raise EvalError("E316", f"{self.what} did not finish within {self.budget:,} steps",
-                        stmt.span)
+            raise EvalError(
+                "E316",
+                f"{self.what} did not finish within {self.budget:,} steps",
+                loop.span,
+                f"this loop runs {n:,} times; is its bound right?",
+            )
+        raise EvalError(
+            "E316", f"{self.what} did not finish within {self.budget:,} steps", stmt.span
+        )
 
     # -- expressions
     def _Name(self, e: ast.Name) -> Value:
@@ -261,9 +289,12 @@ class Interpreter(Evaluator):
             return Word(e.id)
         options = self._scope.visible() | set(self.words)
         close = difflib.get_close_matches(e.id, sorted(options), n=1, cutoff=0.6)
-        raise EvalError("E221", f"unknown name `{e.id}`", e.span,
-                        f"did you mean `{close[0]}`?" if close else
-                        "bind names with `let` or a `for` loop")
+        raise EvalError(
+            "E221",
+            f"unknown name `{e.id}`",
+            e.span,
+            f"did you mean `{close[0]}`?" if close else "bind names with `let` or a `for` loop",
+        )
 
     def _Call(self, e: ast.Call) -> Value:
         name = e.func.id if isinstance(e.func, ast.Name) else None
@@ -277,10 +308,12 @@ class Interpreter(Evaluator):
             return super()._Call(e)
         known = sorted(set(self.functions) | set(LOCAL_BUILTINS) | set(BUILTINS))
         close = difflib.get_close_matches(name or "", known, n=1, cutoff=0.6)
-        raise EvalError("E201", f"unknown function `{name}`" if name else
-                        "only named functions can be called", e.func.span,
-                        f"did you mean `{close[0]}`?" if close else
-                        "available here: " + ", ".join(known))
+        raise EvalError(
+            "E201",
+            f"unknown function `{name}`" if name else "only named functions can be called",
+            e.func.span,
+            f"did you mean `{close[0]}`?" if close else "available here: " + ", ".join(known),
+        )
 
     def _plain_args(self, name: str, e: ast.Call, lo: int, hi: int) -> list[Value]:
         args = []
@@ -290,8 +323,7 @@ class Interpreter(Evaluator):
             args.append(self.eval(a))
         if not lo <= len(args) <= hi:
             want = str(lo) if lo == hi else f"{lo} to {hi}"
-            raise EvalError("E304", f"`{name}` takes {want} argument(s), got {len(args)}",
-                            e.span)
+            raise EvalError("E304", f"`{name}` takes {want} argument(s), got {len(args)}", e.span)
         return args
 
     def _range(self, e: ast.Call) -> Value:
@@ -300,10 +332,14 @@ class Interpreter(Evaluator):
         for a, v in zip(e.args, args):
             i = whole(v)
             if i is None:
-                raise EvalError("E303", f"`range` needs whole numbers, got {show(v)}"
-                                if isinstance(v, int | float) and not isinstance(v, bool) else
-                                f"`range` needs whole numbers, got {type_name(v)}", a.span,
-                                "round it with `floor`, `ceil` or `round`")
+                raise EvalError(
+                    "E303",
+                    f"`range` needs whole numbers, got {show(v)}"
+                    if isinstance(v, int | float) and not isinstance(v, bool)
+                    else f"`range` needs whole numbers, got {type_name(v)}",
+                    a.span,
+                    "round it with `floor`, `ceil` or `round`",
+                )
             ints.append(i)
         if len(ints) == 3 and ints[2] == 0:
             raise EvalError("E305", "`range` step cannot be zero", e.args[2].span)
@@ -312,8 +348,11 @@ class Interpreter(Evaluator):
     def _len(self, e: ast.Call) -> Value:
         (v,) = self._plain_args("len", e, 1, 1)
         if not isinstance(v, tuple | range | str):
-            raise EvalError("E303", f"`len` needs a list, a range or a string, got "
-                            f"{type_name(v)}", e.args[0].span)
+            raise EvalError(
+                "E303",
+                f"`len` needs a list, a range or a string, got {type_name(v)}",
+                e.args[0].span,
+            )
         return len(v)
 
     def _host_call(self, name: str, host: Host, e: ast.Call) -> Value:
@@ -322,8 +361,7 @@ class Interpreter(Evaluator):
         for a in e.args:
             if isinstance(a, ast.KwArg):
                 if a.name.name in kwargs:
-                    raise EvalError("E304", f"argument `{a.name.name}` is given twice",
-                                    a.name.span)
+                    raise EvalError("E304", f"argument `{a.name.name}` is given twice", a.name.span)
                 kwargs[a.name.name] = self.eval(a.value)
             elif isinstance(a, ast.Range):
                 raise EvalError("E304", f"`{name}` does not take ranges", a.span)
@@ -331,10 +369,14 @@ class Interpreter(Evaluator):
                 args.append(self.eval(a))
         hi = host.max_args
         if len(args) < host.min_args or (hi is not None and len(args) > hi):
-            want = (str(hi) if hi == host.min_args else f"{host.min_args} to {hi}"
-                    if hi is not None else f"at least {host.min_args}")
-            raise EvalError("E304", f"`{name}` takes {want} argument(s), got {len(args)}",
-                            e.span)
+            want = (
+                str(hi)
+                if hi == host.min_args
+                else f"{host.min_args} to {hi}"
+                if hi is not None
+                else f"at least {host.min_args}"
+            )
+            raise EvalError("E304", f"`{name}` takes {want} argument(s), got {len(args)}", e.span)
         if host.span:
             kwargs["span"] = e.span
         try:
@@ -351,8 +393,9 @@ class Interpreter(Evaluator):
             raise EvalError("E303", f"cannot index {type_name(obj)}", e.obj.span)
         i = self.eval(e.index)
         if not isinstance(i, int) or isinstance(i, bool) or not -len(obj) <= i < len(obj):
-            raise EvalError("E306", f"index {show(i)} is out of range for a list of {len(obj)}",
-                            e.index.span)
+            raise EvalError(
+                "E306", f"index {show(i)} is out of range for a list of {len(obj)}", e.index.span
+            )
         return obj[i]
 
     def _Binary(self, e: ast.Binary) -> Value:
@@ -360,10 +403,15 @@ class Interpreter(Evaluator):
             a, b = self.eval(e.left), self.eval(e.right)
             if isinstance(a, range) or isinstance(b, range):
                 # A range is a lazy list: it equals the list of the same numbers.
-                same = (isinstance(a, tuple | range) and isinstance(b, tuple | range)
-                        and len(a) == len(b) and all(
-                            x == y and not isinstance(x, bool) and not isinstance(y, bool)
-                            for x, y in zip(a, b)))
+                same = (
+                    isinstance(a, tuple | range)
+                    and isinstance(b, tuple | range)
+                    and len(a) == len(b)
+                    and all(
+                        x == y and not isinstance(x, bool) and not isinstance(y, bool)
+                        for x, y in zip(a, b)
+                    )
+                )
             else:
                 same = a == b and isinstance(a, bool) == isinstance(b, bool)
             return same if e.op == "==" else not same

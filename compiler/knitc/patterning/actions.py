@@ -51,6 +51,7 @@ KNIT = INSTRUCTIONS.index("K")
 
 # ---- the table of actions ---------------------------------------------------------------------
 
+
 @dataclass(frozen=True, eq=False)
 class Program:
     """An action as code generation runs it: its steps and evaluated properties."""
@@ -131,11 +132,19 @@ def _program(name: str, defn: ast.ActionDef, params: Mapping[str, Value]) -> Pro
             return default
         return v if isinstance(v, bool) else default
 
-    return Program(name, defn, steps, flag("split_by_side", False), flag("transfer_back", True),
-                   params, defn.name.span.file == STD_FILE)
+    return Program(
+        name,
+        defn,
+        steps,
+        flag("split_by_side", False),
+        flag("transfer_back", True),
+        params,
+        defn.name.span.file == STD_FILE,
+    )
 
 
 # ---- attaching (pattern pass) -----------------------------------------------------------------
+
 
 def attach(run, stmt: ast.UseStmt, node, env, within) -> None:
     """Attach the action `stmt` names to the stitches its query selects (`run` is the

@@ -57,13 +57,18 @@ def apply_grid(run, stmt: ast.GridStmt, node, env, within) -> None:
     run.instr[m] = vals[m].astype(run.instr.dtype)
     run.mark(m, stmt.span)
     if stmt.mode == "draw" and raster.overflow(values, fr):
-        _once(run, "W710", f"the drawing ({values.shape[0]} x {values.shape[1]}) is larger "
-              "than its selection: the cells outside are left out", stmt.span,
-              hint="select more courses or wales, or draw a smaller chart", warn=True)
+        _once(
+            run,
+            "W710",
+            f"the drawing ({values.shape[0]} x {values.shape[1]}) is larger "
+            "than its selection: the cells outside are left out",
+            stmt.span,
+            hint="select more courses or wales, or draw a smaller chart",
+            warn=True,
+        )
 
 
-def _once(run, code: str, message: str, span, hint: str | None = None,
-          warn: bool = False) -> None:
+def _once(run, code: str, message: str, span, hint: str | None = None, warn: bool = False) -> None:
     """Report once per place: a pattern definition's layer runs for every `apply`."""
     key = (code, span)
     if key in run.warned:
@@ -81,15 +86,30 @@ def _grid(run, stmt: ast.GridStmt, env) -> ast.Grid | None:
         if isinstance(val, ast.Grid):
             return val
         if val is None:
-            _once(run, "E704", f"unknown grid `{g.id}`", g.span,
-                  hint=f'bind it first: `let {g.id} = """ ... """`')
+            _once(
+                run,
+                "E704",
+                f"unknown grid `{g.id}`",
+                g.span,
+                hint=f'bind it first: `let {g.id} = """ ... """`',
+            )
         else:
-            _once(run, "E710", f"`{g.id}` is a selection, not a grid", g.span,
-                  hint=f"to write one instruction on it: `set K where {g.id}`")
+            _once(
+                run,
+                "E710",
+                f"`{g.id}` is a selection, not a grid",
+                g.span,
+                hint=f"to write one instruction on it: `set K where {g.id}`",
+            )
         return None
-    _once(run, "E710", f"`{stmt.mode}` needs a grid of instructions", g.span,
-          hint='write a `"""` grid or a `let` name bound to one; an image selects stitches: '
-               '`set P where img("file.png")`')
+    _once(
+        run,
+        "E710",
+        f"`{stmt.mode}` needs a grid of instructions",
+        g.span,
+        hint='write a `"""` grid or a `let` name bound to one; an image selects stitches: '
+        '`set P where img("file.png")`',
+    )
     return None
 
 
@@ -97,18 +117,34 @@ def _instructions(run, stmt: ast.GridStmt, grid: ast.Grid) -> np.ndarray | None:
     """The grid as instruction indices (-1 = `.`), or None after reporting its errors."""
     ok = True
     for at, msg in raster.chart_shape_problems(grid):
-        _once(run, "E716", msg, at.span, hint="every row of a grid has as many cells as the "
-              "first; use `.` for a stitch the drawing leaves as it is")
+        _once(
+            run,
+            "E716",
+            msg,
+            at.span,
+            hint="every row of a grid has as many cells as the "
+            "first; use `.` for a stitch the drawing leaves as it is",
+        )
         ok = False
     for kind, cell in raster.cell_problems(grid, stmt.mode):
         ok = False
         if kind == "unknown":
-            _once(run, "E220", f"`{cell.text}` is not a pattern instruction", cell.span,
-                  hint="use K P T M FR1 FR2 FL1 FL2 BR1 BR2 BL1 BL2 XR+ XR- XL+ XL- S, "
-                       "or `.` to leave a stitch as it is")
+            _once(
+                run,
+                "E220",
+                f"`{cell.text}` is not a pattern instruction",
+                cell.span,
+                hint="use K P T M FR1 FR2 FL1 FL2 BR1 BR2 BL1 BL2 XR+ XR- XL+ XL- S, "
+                "or `.` to leave a stitch as it is",
+            )
         else:
-            _once(run, "E315", "a stretched grid cannot hold crosses", cell.span,
-                  hint="scaling would tear cable pairs apart; use `tile` or `draw`")
+            _once(
+                run,
+                "E315",
+                "a stretched grid cannot hold crosses",
+                cell.span,
+                hint="scaling would tear cable pairs apart; use `tile` or `draw`",
+            )
     if not ok:
         return None
     return raster.chart_values(grid, INSTRUCTIONS.index)

@@ -36,8 +36,15 @@ class GridCoords:
     col: np.ndarray  # int64 (-1 off the grid)
 
 
-def extrude(g: StitchGraph, seeds: np.ndarray, cols: np.ndarray, rows: np.ndarray,
-            up: int | None, down: int | None, domain: np.ndarray) -> GridCoords:
+def extrude(
+    g: StitchGraph,
+    seeds: np.ndarray,
+    cols: np.ndarray,
+    rows: np.ndarray,
+    up: int | None,
+    down: int | None,
+    domain: np.ndarray,
+) -> GridCoords:
     """Trace the wales of `seeds` (stitch ids with their grid column and row) `up` steps
     upwards and `down` steps downwards (None: until the wale leaves `domain` or its node:
     a grid belongs to one node); each step adds 1 to (upwards) or takes 1 from (downwards)
@@ -86,8 +93,9 @@ def stitch_at(g: StitchGraph, wale: np.ndarray) -> np.ndarray:
     return at
 
 
-def course_runs(g: StitchGraph, wale: np.ndarray, anchors: np.ndarray, width: int | None,
-                align: str) -> tuple[np.ndarray, np.ndarray]:
+def course_runs(
+    g: StitchGraph, wale: np.ndarray, anchors: np.ndarray, width: int | None, align: str
+) -> tuple[np.ndarray, np.ndarray]:
     """The stitches of a run of `width` stitches along each anchor's course (None: the
     whole course), placed so the anchor is its left end, centre or right end; with their
     columns in the run. Flat courses clip the run at their ends, tubular ones wrap."""

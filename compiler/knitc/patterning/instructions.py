@@ -42,12 +42,15 @@ from knitc.shaping.stitch_graph import INSTRUCTIONS, StitchGraph
 from knitc.source import Span
 
 K, P, T, M = (INSTRUCTIONS.index(x) for x in "KPTM")
-MOVES = {INSTRUCTIONS.index(m): (1 if m[1] == "R" else -1) * int(m[2])
-         for m in ("FR1", "FR2", "FL1", "FL2", "BR1", "BR2", "BL1", "BL2")}
+MOVES = {
+    INSTRUCTIONS.index(m): (1 if m[1] == "R" else -1) * int(m[2])
+    for m in ("FR1", "FR2", "FL1", "FL2", "BR1", "BR2", "BL1", "BL2")
+}
 """Move instruction -> signed needles along the course (right = +)."""
 CROSSES = tuple(INSTRUCTIONS.index(x) for x in ("XR+", "XR-", "XL+", "XL-"))
-COMPLEMENT = {INSTRUCTIONS.index(a): INSTRUCTIONS.index(b)
-              for a, b in (("XR+", "XL-"), ("XR-", "XL+"))}
+COMPLEMENT = {
+    INSTRUCTIONS.index(a): INSTRUCTIONS.index(b) for a, b in (("XR+", "XL-"), ("XR-", "XL+"))
+}
 """A cross run that goes right -> the run that must follow it to make the cable."""
 UPPER = INSTRUCTIONS.index("XR+")
 """The right-going run that passes in front (the other, XR-, passes behind)."""
@@ -73,8 +76,7 @@ class Cable:
         return [n - f + i for i in range(f)] + [s + i for i in range(r)] + list(range(s))
 
 
-def check_instructions(g: StitchGraph, diags: Diagnostics, *,
-                       racking: int = 4) -> StitchGraph:
+def check_instructions(g: StitchGraph, diags: Diagnostics, *, racking: int = 4) -> StitchGraph:
     """The graph with every instruction that cannot be knitted where it is reset to K;
     `racking` is the machine's limit, which bounds how far a loop can be carried."""
     run = _Check(g, diags, g.instr.copy(), racking)
@@ -186,8 +188,9 @@ class _Check:
         for origin, n in sorted(Counter(g.origin[ids].tolist()).items()):
             first = int(ids[g.origin[ids] == origin][0])
             span, notes = origin_site(g, origin)
-            self.diags.warning(code, f"{n} {what}", span or g.spans[int(g.span[first])],
-                               hint=hint, notes=notes)
+            self.diags.warning(
+                code, f"{n} {what}", span or g.spans[int(g.span[first])], hint=hint, notes=notes
+            )
         self.instr[mask] = K
 
     def irregular(self) -> None:
@@ -196,23 +199,36 @@ class _Check:
         wp = np.maximum(g.wale_prev, 0)
         inc_child = ((g.wale_prev >= 0) & inc_parent[wp]).any(1)
         dec_child = self.n_prev == 2
-        bad = (instr != K) & (inc_child | ((inc_parent | self.dec_parent) & (instr != P))
-                              | (dec_child & (instr == T)))
-        self.drop(bad, "W708", "pattern instruction(s) on increase or decrease stitches are "
-                  "ignored: these stitches are knitted plain",
-                  "an increase makes its own stitches, and a loop the shaping moves cannot be "
-                  "carried by the pattern too; keep motifs away from shaping")
+        bad = (instr != K) & (
+            inc_child | ((inc_parent | self.dec_parent) & (instr != P)) | (dec_child & (instr == T))
+        )
+        self.drop(
+            bad,
+            "W708",
+            "pattern instruction(s) on increase or decrease stitches are "
+            "ignored: these stitches are knitted plain",
+            "an increase makes its own stitches, and a loop the shaping moves cannot be "
+            "carried by the pattern too; keep motifs away from shaping",
+        )
 
     def last_course(self) -> None:
         last = self.n_next == 0
-        self.drop(np.isin(self.instr, (T, M)) & last, "W708", "tuck or miss stitch(es) on "
-                  "the last course of a piece are knitted plain: the cast-off would bind "
-                  "three loops at once", "end the motif a course before the piece's last "
-                  "course")
+        self.drop(
+            np.isin(self.instr, (T, M)) & last,
+            "W708",
+            "tuck or miss stitch(es) on "
+            "the last course of a piece are knitted plain: the cast-off would bind "
+            "three loops at once",
+            "end the motif a course before the piece's last course",
+        )
         carried = np.isin(self.instr, list(MOVES) + list(CROSSES))
-        self.drop(carried & last, "W709", "move or cross stitch(es) on the last course of a "
-                  "piece are not applied: there is no next course to carry the loops into",
-                  "end the motif a course before the piece's last course")
+        self.drop(
+            carried & last,
+            "W709",
+            "move or cross stitch(es) on the last course of a "
+            "piece are not applied: there is no next course to carry the loops into",
+            "end the motif a course before the piece's last course",
+        )
 
     def crosses(self) -> None:
         g, instr = self.g, self.instr
@@ -221,15 +237,24 @@ class _Check:
             for cab in cables(g, g.course_ids(c), self.right, self.left):
                 grp = np.array(cab.group)
                 reach = (len(grp) - min(cab.first, cab.second)) * int(g.course_gauge[c])
-                if len(set(g.side[grp].tolist())) == 1 and (self.n_next[grp] == 1).all() \
-                        and not self.dec_parent[grp].any() and reach <= self.racking:
+                if (
+                    len(set(g.side[grp].tolist())) == 1
+                    and (self.n_next[grp] == 1).all()
+                    and not self.dec_parent[grp].any()
+                    and reach <= self.racking
+                ):
                     ok[grp[np.isin(instr[grp], CROSSES)]] = True
-        self.drop(np.isin(instr, CROSSES) & ~ok, "W709", "cross stitch(es) are not applied "
-                  "and are knitted plain: a cable needs a run of XR+ (XR-) followed by a run "
-                  "of XL- (XL+), on one bed, away from shaping, and within the machine's "
-                  "racking", "pair every right-going cross run with its complement, e.g. "
-                  "`XR+ XR+ XL- XL-`; relief stitches between the runs need runs of equal "
-                  "width")
+        self.drop(
+            np.isin(instr, CROSSES) & ~ok,
+            "W709",
+            "cross stitch(es) are not applied "
+            "and are knitted plain: a cable needs a run of XR+ (XR-) followed by a run "
+            "of XL- (XL+), on one bed, away from shaping, and within the machine's "
+            "racking",
+            "pair every right-going cross run with its complement, e.g. "
+            "`XR+ XR+ XL- XL-`; relief stitches between the runs need runs of equal "
+            "width",
+        )
 
     def moves(self) -> None:
         """A needle ends with the loop of its own stitch unless that one moves away, plus
@@ -241,8 +266,14 @@ class _Check:
         for s in movers:
             t = neighbour(self.right, self.left, s, MOVES[int(instr[s])])
             reach = abs(MOVES[int(instr[s])]) * int(g.course_gauge[g.course[s]])
-            if t < 0 or g.side[t] != g.side[s] or self.n_next[t] != 1 or reach > self.racking \
-                    or self.dec_parent[t] or int(instr[t]) in CROSSES:
+            if (
+                t < 0
+                or g.side[t] != g.side[s]
+                or self.n_next[t] != 1
+                or reach > self.racking
+                or self.dec_parent[t]
+                or int(instr[t]) in CROSSES
+            ):
                 bad[s] = True
             else:
                 plan.append((s, t))
@@ -259,10 +290,14 @@ class _Check:
                 break
             bad[refused] = True
             plan = [(s, t) for s, t in plan if s not in set(refused)]
-        self.drop(bad, "W709", "move(s) are not applied and are knitted plain: the loop "
-                  "would leave the fabric or its bed, land on a stitch that shaping or a "
-                  "cable moves, "
-                  "or make a third loop on a needle", "moves on flat courses stay inside "
-                  "the piece (edge stitches cannot move outwards); at most two loops may "
-                  "meet on a needle")
-
+        self.drop(
+            bad,
+            "W709",
+            "move(s) are not applied and are knitted plain: the loop "
+            "would leave the fabric or its bed, land on a stitch that shaping or a "
+            "cable moves, "
+            "or make a third loop on a needle",
+            "moves on flat courses stay inside "
+            "the piece (edge stitches cannot move outwards); at most two loops may "
+            "meet on a needle",
+        )

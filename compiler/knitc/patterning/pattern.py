@@ -53,8 +53,9 @@ def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> Sti
         # the statements of one `pattern X { ... }` block share its `let`s
         env = run.envs.setdefault(layer.origin, QueryEnv(params=dict(skel.params), lets={}))
         run.stmts((layer.stmt,), node, env, None, 0)
-    return dataclasses.replace(g, instr=run.instr, action=run.action, origin=run.origin,
-                               spans=run.spans)
+    return dataclasses.replace(
+        g, instr=run.instr, action=run.action, origin=run.origin, spans=run.spans
+    )
 
 
 @dataclasses.dataclass
@@ -87,8 +88,9 @@ class _Run:
             self.spans.append(Span.expanded(chain))
         self.origin[mask] = k
 
-    def stmts(self, body, node: int | None, env: QueryEnv, within: np.ndarray | None,
-              depth: int) -> None:
+    def stmts(
+        self, body, node: int | None, env: QueryEnv, within: np.ndarray | None, depth: int
+    ) -> None:
         for stmt in body:
             if isinstance(stmt, ast.Let):
                 env.lets[stmt.name.name] = stmt.value  # type: ignore[index]
@@ -103,20 +105,30 @@ class _Run:
             elif isinstance(stmt, ast.GridStmt):
                 drawing.apply_grid(self, stmt, node, env, within)
 
-    def select(self, node: int | None, where, env: QueryEnv,
-               within: np.ndarray | None) -> np.ndarray:
+    def select(
+        self, node: int | None, where, env: QueryEnv, within: np.ndarray | None
+    ) -> np.ndarray:
         mask = evaluate_query(self.g, node, where, env, self.diags, c=self.coords, within=within)
         return mask if within is None else mask & within
 
-    def apply(self, stmt: ast.ApplyStmt, node: int | None, env: QueryEnv,
-              within: np.ndarray | None, depth: int) -> None:
+    def apply(
+        self,
+        stmt: ast.ApplyStmt,
+        node: int | None,
+        env: QueryEnv,
+        within: np.ndarray | None,
+        depth: int,
+    ) -> None:
         pdef = self.skel.patterns.get(stmt.pattern.name)
         if pdef is None:
             return  # the resolver reported it
         if depth >= MAX_DEPTH:
-            self.diags.error("E707", f"`{pdef.name.name}` applies patterns more than "
-                             f"{MAX_DEPTH} deep", stmt.span,
-                             hint="a pattern that applies itself never ends")
+            self.diags.error(
+                "E707",
+                f"`{pdef.name.name}` applies patterns more than {MAX_DEPTH} deep",
+                stmt.span,
+                hint="a pattern that applies itself never ends",
+            )
             return
         values = self.arguments(pdef, stmt, env)
         if values is None:
@@ -131,10 +143,12 @@ class _Run:
         self.coords = outer
         self.chain.pop()
 
-    def arguments(self, pdef: ast.PatternDef, stmt: ast.ApplyStmt,
-                  env: QueryEnv) -> dict[str, object] | None:
+    def arguments(
+        self, pdef: ast.PatternDef, stmt: ast.ApplyStmt, env: QueryEnv
+    ) -> dict[str, object] | None:
         """The formals bound to the call's arguments (positional, then by name, then the
         defaults), evaluated as constants; None after an error."""
+
         def param(name, span):
             if name in env.params:
                 return env.params[name]
@@ -156,8 +170,9 @@ class _Run:
             for f in pdef.params:
                 e = given.get(f.name.name, f.default)
                 if e is None:
-                    self.diags.error("E703", f"`{pdef.name.name}` needs argument "
-                                     f"`{f.name.name}`", stmt.span)
+                    self.diags.error(
+                        "E703", f"`{pdef.name.name}` needs argument `{f.name.name}`", stmt.span
+                    )
                     return None
                 v = ev.eval(e)
                 values[f.name.name] = v.name if isinstance(v, Word) else v

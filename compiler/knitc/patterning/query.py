@@ -68,12 +68,33 @@ DRAWN = ("stretch", "tile", "img", "noise")
 """Queries that place a raster or noise over a frame."""
 GRIDS = ("wale_grid", "stitch_grid")
 """Queries that build grid coordinates (a frame) from seed stitches."""
-SUPPORTED = ("all", "filter", "wales", "courses", "select", "side", "neighbors", "boundaries",
-             "named", "shape", "itf", "inverse") + DRAWN + GRIDS
+SUPPORTED = (
+    (
+        "all",
+        "filter",
+        "wales",
+        "courses",
+        "select",
+        "side",
+        "neighbors",
+        "boundaries",
+        "named",
+        "shape",
+        "itf",
+        "inverse",
+    )
+    + DRAWN
+    + GRIDS
+)
 """Every query function of thesis Table 5.1 and ch. 6.9.1 that knitc has."""
 X_ALIGN = {"left": "left", "center": "center", "centre": "center", "right": "right"}
-Y_ALIGN = {"bottom": "bottom", "middle": "middle", "center": "middle", "centre": "middle",
-           "top": "top"}
+Y_ALIGN = {
+    "bottom": "bottom",
+    "middle": "middle",
+    "center": "middle",
+    "centre": "middle",
+    "top": "top",
+}
 
 
 @dataclass
@@ -109,8 +130,7 @@ class Coords:
     edge: np.ndarray  # bool: first/last course of its node, or an end of a flat course
 
 
-def _group_rank(keys: tuple[np.ndarray, ...], group: np.ndarray) -> tuple[np.ndarray,
-                                                                          np.ndarray]:
+def _group_rank(keys: tuple[np.ndarray, ...], group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Rank of each element within its group (ordered by `keys`), and the group size."""
     n = group.shape[0]
     order = np.lexsort(keys + (group,))
@@ -134,10 +154,12 @@ def relative(g: StitchGraph, c: Coords, sel: np.ndarray) -> Coords:
     clo, chi = raster.extent(g.node.astype(np.int64), c.course, sel)
     wlo, whi = raster.extent(g.course.astype(np.int64), c.wale, sel)
     return dataclasses.replace(
-        c, course=np.where(sel, c.course - clo, c.course),
+        c,
+        course=np.where(sel, c.course - clo, c.course),
         course_end=np.where(sel, chi - clo, c.course_end),
         wale=np.where(sel, c.wale - wlo, c.wale),
-        wale_end=np.where(sel, whi - wlo, c.wale_end))
+        wale_end=np.where(sel, whi - wlo, c.wale_end),
+    )
 
 
 def coords(g: StitchGraph) -> Coords:
@@ -166,8 +188,9 @@ def _neighbour_table(g: StitchGraph) -> np.ndarray:
     return np.column_stack([g.cprev, g.cnext, g.wale_prev, g.wale_next]).astype(np.int64)
 
 
-def grow(g: StitchGraph, sel: np.ndarray, domain: np.ndarray,
-         nbrs: np.ndarray | None = None) -> np.ndarray:
+def grow(
+    g: StitchGraph, sel: np.ndarray, domain: np.ndarray, nbrs: np.ndarray | None = None
+) -> np.ndarray:
     """`sel` plus every stitch of `domain` one course or wale link away from it."""
     if nbrs is None:
         nbrs = _neighbour_table(g)
@@ -180,8 +203,14 @@ def grow(g: StitchGraph, sel: np.ndarray, domain: np.ndarray,
 
 
 class _Eval:
-    def __init__(self, g: StitchGraph, node: int | None, env: QueryEnv, c: Coords | None,
-                 within: np.ndarray | None = None):
+    def __init__(
+        self,
+        g: StitchGraph,
+        node: int | None,
+        env: QueryEnv,
+        c: Coords | None,
+        within: np.ndarray | None = None,
+    ):
         self.g = g
         self.env = env
         self.c = coords(g) if c is None else c
@@ -206,8 +235,12 @@ class _Eval:
         if isinstance(q, ast.Name):
             val = self.env.lets.get(q.id)
             if val is None:
-                raise QueryError("E704", f"unknown selection `{q.id}`", q.span,
-                                 hint="bind it first with `let NAME = QUERY`")
+                raise QueryError(
+                    "E704",
+                    f"unknown selection `{q.id}`",
+                    q.span,
+                    hint="bind it first with `let NAME = QUERY`",
+                )
             if isinstance(val, np.ndarray):
                 return val.astype(bool) & self.domain
             return self.query(val)
@@ -221,25 +254,35 @@ class _Eval:
             if q.func.id in DRAWN or q.func.id in GRIDS:
                 return self.framed(q.func.id, q, None).mask & self.domain
             return self.call(q.func.id, q, None)
-        raise QueryError("E701", "this expression is not a query", q.span,
-                         hint="queries are calls such as `wales(0:3)` combined with "
-                              "`or`, `and`, `not` and `-`")
+        raise QueryError(
+            "E701",
+            "this expression is not a query",
+            q.span,
+            hint="queries are calls such as `wales(0:3)` combined with `or`, `and`, `not` and `-`",
+        )
 
     def call(self, name: str, q: ast.Call, base: np.ndarray | None) -> np.ndarray:
         args = [a for a in q.args if not isinstance(a, ast.KwArg)]
         if name not in SUPPORTED:
-            raise QueryError("E701", f"unknown query `{name}`", q.func.span,
-                             hint="queries: " + ", ".join(SUPPORTED))
+            raise QueryError(
+                "E701",
+                f"unknown query `{name}`",
+                q.func.span,
+                hint="queries: " + ", ".join(SUPPORTED),
+            )
         if base is not None and name not in ("neighbors", "boundaries", "inverse"):
-            raise QueryError("E701", f"`.{name}(...)` cannot be chained on a selection",
-                             q.func.span, hint="combine selections with `and`")
+            raise QueryError(
+                "E701",
+                f"`.{name}(...)` cannot be chained on a selection",
+                q.func.span,
+                hint="combine selections with `and`",
+            )
         c, d = self.c, self.domain
         if name == "all":
             return d.copy()
         if name == "inverse":
             if base is None:
-                raise QueryError("E701", "`inverse()` needs a selection: `Q.inverse()`",
-                                 q.span)
+                raise QueryError("E701", "`inverse()` needs a selection: `Q.inverse()`", q.span)
             return d & ~base
         if name == "filter":
             v = self.pred(args[0])
@@ -255,16 +298,18 @@ class _Eval:
             rows = self.range(args[0], c.course, c.course_end)
             if len(args) == 3:
                 s = self.side_arg(args[2])
-                return d & rows & (self.g.side == s) & self.range(args[1], c.swale,
-                                                                    c.swale_end)
+                return d & rows & (self.g.side == s) & self.range(args[1], c.swale, c.swale_end)
             return d & rows & self.range(args[1], c.wale, c.wale_end)
         if name == "side":
             return d & (self.g.side == self.side_arg(args[0]))
         if name == "neighbors":
             if base is None:
-                raise QueryError("E701", "`neighbors(R)` needs a selection to grow from",
-                                 q.span, hint="write `Q.neighbors(R)`, e.g. "
-                                              "`wales(0).neighbors(1)`")
+                raise QueryError(
+                    "E701",
+                    "`neighbors(R)` needs a selection to grow from",
+                    q.span,
+                    hint="write `Q.neighbors(R)`, e.g. `wales(0).neighbors(1)`",
+                )
             return self.neighbors(base, args[0] if args else None)
         if name == "boundaries":  # at the piece's edge, or next to a stitch not selected
             base = d if base is None else base
@@ -291,8 +336,13 @@ class _Eval:
     def plain(self, mask: np.ndarray) -> Placement:
         """A selection framed by its course/wale coordinates, per node."""
         g = self.g
-        return Placement(mask, self.c.course, self.c.wale, g.node.astype(np.int64),
-                         row_key=g.course.astype(np.int64))
+        return Placement(
+            mask,
+            self.c.course,
+            self.c.wale,
+            g.node.astype(np.int64),
+            row_key=g.course.astype(np.int64),
+        )
 
     def frame(self, q: ast.Node | None) -> Placement:
         """The selection of `q` with the coordinates a raster is placed in."""
@@ -340,11 +390,13 @@ class _Eval:
             return self.noise(base or self.plain(self.scope.copy()), a)
         a = self.bind(q, ("grid", "coords"), need=1)
         if base is not None and "coords" in a:
-            raise QueryError("E703", f"`.{name}(...)` is chained on a selection and also "
-                                     "given one", a["coords"].span,
-                             hint=f"write `Q.{name}(grid)` or `{name}(grid, Q)`")
-        fr = base or (self.frame(a["coords"]) if "coords" in a
-                      else self.plain(self.scope.copy()))
+            raise QueryError(
+                "E703",
+                f"`.{name}(...)` is chained on a selection and also given one",
+                a["coords"].span,
+                hint=f"write `Q.{name}(grid)` or `{name}(grid, Q)`",
+            )
+        fr = base or (self.frame(a["coords"]) if "coords" in a else self.plain(self.scope.copy()))
         on = self.raster_arg(a["grid"])
         return dataclasses.replace(fr, mask=raster.place(on, fr, name) >= 0)
 
@@ -353,24 +405,32 @@ class _Eval:
         fname = q.func.name.name if isinstance(q.func, ast.Attr) else q.func.id  # type: ignore
         pos = [a for a in q.args if not isinstance(a, ast.KwArg)]
         if len(pos) > len(names):
-            raise QueryError("E703", f"`{fname}` takes at most {len(names)} argument(s), got "
-                                     f"{len(pos)}", q.span,
-                             hint=f"`{fname}({', '.join(names)})`")
+            raise QueryError(
+                "E703",
+                f"`{fname}` takes at most {len(names)} argument(s), got {len(pos)}",
+                q.span,
+                hint=f"`{fname}({', '.join(names)})`",
+            )
         out: dict[str, ast.Node] = dict(zip(names, pos))
         for kw in q.args:
             if not isinstance(kw, ast.KwArg):
                 continue
             k = kw.name.name
             if k not in names:
-                raise QueryError("E703", f"`{fname}` has no argument `{k}`", kw.name.span,
-                                 hint=f"its arguments: {', '.join(names)}")
+                raise QueryError(
+                    "E703",
+                    f"`{fname}` has no argument `{k}`",
+                    kw.name.span,
+                    hint=f"its arguments: {', '.join(names)}",
+                )
             if k in out:
                 raise QueryError("E703", f"argument `{k}` is given twice", kw.name.span)
             out[k] = kw.value
         if len(out) < need:
             missing = [n for n in names[:need] if n not in out]
-            raise QueryError("E703", f"`{fname}` needs " + ", ".join(f"`{m}`" for m in
-                                                                      missing), q.span)
+            raise QueryError(
+                "E703", f"`{fname}` needs " + ", ".join(f"`{m}`" for m in missing), q.span
+            )
         return out
 
     def raster_arg(self, a: ast.Node) -> np.ndarray:
@@ -380,68 +440,101 @@ class _Eval:
             a = self.env.lets[a.id]  # type: ignore[assignment]
         if isinstance(a, ast.Grid):
             for at, msg in raster.chart_shape_problems(a):
-                raise QueryError("E716", msg, at.span, hint="every row of a grid has as many "
-                                 "cells as the first; use `.` for an empty cell")
+                raise QueryError(
+                    "E716",
+                    msg,
+                    at.span,
+                    hint="every row of a grid has as many "
+                    "cells as the first; use `.` for an empty cell",
+                )
             return raster.chart_values(a, lambda _text: 0)
         if isinstance(a, ast.Call) and isinstance(a.func, ast.Name) and a.func.id == "img":
             return self.image(a, self.bind(a, ("file", "channel", "threshold"), need=1))
-        raise QueryError("E710", "expected a grid", a.span,
-                         hint='a `"""` grid of cells (`.` or `0` = off, anything else on), '
-                              "a `let` name bound to one, or `img(file)`")
+        raise QueryError(
+            "E710",
+            "expected a grid",
+            a.span,
+            hint='a `"""` grid of cells (`.` or `0` = off, anything else on), '
+            "a `let` name bound to one, or `img(file)`",
+        )
 
     def image(self, q: ast.Call, a: dict[str, ast.Node]) -> np.ndarray:
         """Cells of an image: 0 where the channel reaches the threshold, else -1."""
         fa = a["file"]
         if not isinstance(fa, ast.String):
-            raise QueryError("E703", "the image file is a name in quotes", fa.span,
-                             hint='e.g. `img("motif.png")`, relative to the design file')
+            raise QueryError(
+                "E703",
+                "the image file is a name in quotes",
+                fa.span,
+                hint='e.g. `img("motif.png")`, relative to the design file',
+            )
         channel = "k"
         if "channel" in a:
             channel = self.string(a["channel"]).lower()
             if channel not in raster.CHANNELS:
-                raise QueryError("E714", f"unknown image channel `{channel}`",
-                                 a["channel"].span,
-                                 hint="channels: r g b a (opacity) l (luminance) "
-                                      "k (darkness, the default)")
+                raise QueryError(
+                    "E714",
+                    f"unknown image channel `{channel}`",
+                    a["channel"].span,
+                    hint="channels: r g b a (opacity) l (luminance) k (darkness, the default)",
+                )
         threshold = 0.5
         if "threshold" in a:
             threshold = self.scalar(a["threshold"])
             if not 0 <= threshold <= 1:
-                raise QueryError("E714", f"an image threshold is between 0 and 1, got "
-                                         f"{threshold:g}", a["threshold"].span)
+                raise QueryError(
+                    "E714",
+                    f"an image threshold is between 0 and 1, got {threshold:g}",
+                    a["threshold"].span,
+                )
         path = Path(fa.value)
         if not path.is_absolute() and fa.span is not None:
             path = Path(fa.span.file).parent / path
         try:
             values = raster.image_channel(str(path), channel)
         except raster.ImageProblem as err:
-            raise QueryError("E713", str(err), fa.span,
-                             hint="image paths are relative to the file that names them"
-                             ) from None
+            raise QueryError(
+                "E713",
+                str(err),
+                fa.span,
+                hint="image paths are relative to the file that names them",
+            ) from None
         return np.where(values >= threshold, 0, raster.OFF).astype(np.int64)
 
     def noise(self, fr: Placement, a: dict[str, ast.Node]) -> Placement:
         """Stitches where seeded 2-D simplex noise over the frame reaches the threshold."""
         scale = self.scalar(a["scale"])
         if not scale > 0:
-            raise QueryError("E717", f"the noise scale is a size in stitches above 0, got "
-                                     f"{scale:g}", a["scale"].span)
+            raise QueryError(
+                "E717",
+                f"the noise scale is a size in stitches above 0, got {scale:g}",
+                a["scale"].span,
+            )
         threshold = self.scalar(a["threshold"]) if "threshold" in a else 0.5
         if not 0 <= threshold <= 1:
-            raise QueryError("E717", f"a noise threshold is between 0 and 1, got "
-                                     f"{threshold:g}", a["threshold"].span)
+            raise QueryError(
+                "E717",
+                f"a noise threshold is between 0 and 1, got {threshold:g}",
+                a["threshold"].span,
+            )
         seed = 1
         if "seed" in a:
             v = self.scalar(a["seed"])
             if v != int(v):
-                raise QueryError("E717", f"a noise seed is a whole number, got {v:g}",
-                                 a["seed"].span)
+                raise QueryError(
+                    "E717", f"a noise seed is a whole number, got {v:g}", a["seed"].span
+                )
             seed = int(v)
         r0, c0 = raster.origin(fr)
         ids = np.nonzero(fr.mask)[0]
-        val = (raster.simplex2((fr.col[ids] - c0[ids]) / scale,
-                               (fr.row[ids] - r0[ids]) / scale, raster.permutation(seed))
-               + 1.0) / 2.0
+        val = (
+            raster.simplex2(
+                (fr.col[ids] - c0[ids]) / scale,
+                (fr.row[ids] - r0[ids]) / scale,
+                raster.permutation(seed),
+            )
+            + 1.0
+        ) / 2.0
         mask = np.zeros_like(fr.mask)
         mask[ids[val >= threshold]] = True
         return dataclasses.replace(fr, mask=mask)
@@ -451,13 +544,20 @@ class _Eval:
         `end` or `-end` (as far as the wale goes: count None)."""
         if e is None or (isinstance(e, ast.Name) and e.id == "end"):
             return 1, None
-        if isinstance(e, ast.Unary) and e.op == "-" and isinstance(e.operand, ast.Name) \
-                and e.operand.id == "end":
+        if (
+            isinstance(e, ast.Unary)
+            and e.op == "-"
+            and isinstance(e.operand, ast.Name)
+            and e.operand.id == "end"
+        ):
             return -1, None
         v = self.scalar(e)
         if v != int(v) or v == 0:
-            raise QueryError("E715", f"a grid size is a whole number of stitches other than "
-                                     f"0, or `end`, got {v:g}", e.span)
+            raise QueryError(
+                "E715",
+                f"a grid size is a whole number of stitches other than 0, or `end`, got {v:g}",
+                e.span,
+            )
         return (1 if v > 0 else -1), abs(int(v))
 
     def seeds_course(self, sel: np.ndarray, top: bool) -> np.ndarray:
@@ -479,8 +579,9 @@ class _Eval:
         ids = np.nonzero(seeds)[0]
         far = None if count is None else count - 1
         up_n, down_n = (0, far) if down else (far, 0)
-        gc = grids.extrude(g, ids, rank[ids], np.zeros(ids.size, np.int64), up_n, down_n,
-                           self.domain)
+        gc = grids.extrude(
+            g, ids, rank[ids], np.zeros(ids.size, np.int64), up_n, down_n, self.domain
+        )
         return Placement(gc.on, gc.row, gc.col, node, anchored=True)
 
     def stitch_grid(self, sel: np.ndarray, a: dict[str, ast.Node]) -> Placement:
@@ -490,9 +591,13 @@ class _Eval:
         (ws, w), (hs, h) = self.steps(a["w"]), self.steps(a["h"])
         for key, sign in (("w", ws), ("h", hs)):
             if sign < 0:
-                raise QueryError("E715", "a grid size is a positive whole number or `end`",
-                                 a[key].span, hint="place the grid with its alignments "
-                                 '(`"right"`, `"top"`) instead of negative sizes')
+                raise QueryError(
+                    "E715",
+                    "a grid size is a positive whole number or `end`",
+                    a[key].span,
+                    hint="place the grid with its alignments "
+                    '(`"right"`, `"top"`) instead of negative sizes',
+                )
         xa = self.choice(a.get("x_align"), X_ALIGN, "left")
         ya = self.choice(a.get("y_align"), Y_ALIGN, "bottom")
         sel = sel & self.domain
@@ -504,8 +609,7 @@ class _Eval:
         anchors = order[first]
         run, cols = grids.course_runs(g, c.wale, anchors, w, xa)
         row0, up, down = grids.vertical_span(h, ya)
-        gc = grids.extrude(g, run, cols, np.full(run.size, row0, np.int64), up, down,
-                           self.domain)
+        gc = grids.extrude(g, run, cols, np.full(run.size, row0, np.int64), up, down, self.domain)
         return Placement(gc.on, gc.row, gc.col, node, anchored=True)
 
     def choice(self, e: ast.Node | None, table: dict[str, str], default: str) -> str:
@@ -513,8 +617,9 @@ class _Eval:
             return default
         v = self.string(e) if isinstance(e, ast.String) else None
         if v not in table:
-            raise QueryError("E715", "expected one of " + ", ".join(f'"{k}"' for k in table),
-                             e.span)
+            raise QueryError(
+                "E715", "expected one of " + ", ".join(f'"{k}"' for k in table), e.span
+            )
         return table[v]
 
     def scalar(self, e: ast.Node) -> float:
@@ -534,14 +639,17 @@ class _Eval:
             lo, hi = 1, 1
         elif isinstance(arg, ast.Range):
             if arg.step is not None:
-                raise QueryError("E702", "`neighbors` takes a ring range without a step",
-                                 arg.span)
+                raise QueryError("E702", "`neighbors` takes a ring range without a step", arg.span)
             lo, hi = self.int_scalar(arg.start), self.int_scalar(arg.stop)
         else:
             lo, hi = 1, self.int_scalar(arg)
         if lo < 0 or hi < lo:
-            raise QueryError("E702", f"bad ring range {lo}:{hi}", arg.span if arg else None,
-                             hint="rings are counted from 0 (the selection itself) upwards")
+            raise QueryError(
+                "E702",
+                f"bad ring range {lo}:{hi}",
+                arg.span if arg else None,
+                hint="rings are counted from 0 (the selection itself) upwards",
+            )
         d = self.domain
         dist = np.where(base & d, 0, -1)
         cur = base & d
@@ -585,8 +693,7 @@ class _Eval:
         if isinstance(e, ast.ParamRef):
             v = self.env.params.get(e.name)
             if isinstance(v, bool) or not isinstance(v, int | float):
-                raise QueryError("E704", f"parameter `#{e.name}` is not a known number",
-                                 e.span)
+                raise QueryError("E704", f"parameter `#{e.name}` is not a known number", e.span)
             return v, False
         if isinstance(e, ast.Unary) and e.op == "-":
             v, u = self.bound(e.operand, end)
@@ -597,11 +704,11 @@ class _Eval:
             if e.op == "/" and np.any(np.asarray(b) == 0):
                 raise QueryError("E702", "division by zero in a range", e.span)
             with np.errstate(all="ignore"):
-                out = {"+": np.add, "-": np.subtract, "*": np.multiply,
-                       "/": np.true_divide}[e.op](a, b)
+                out = {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.true_divide}[e.op](
+                    a, b
+                )
             return out, ua or ub
-        raise QueryError("E702", "a range bound is a number, `end` or `#param` arithmetic",
-                         e.span)
+        raise QueryError("E702", "a range bound is a number, `end` or `#param` arithmetic", e.span)
 
     @staticmethod
     def _resolve(v: object, uses_end: bool, end: np.ndarray) -> np.ndarray:
@@ -622,8 +729,9 @@ class _Eval:
         if a.step is not None:
             s, uses_end = self.bound(a.step, None)
             if uses_end or float(s) != math.floor(float(s)) or s < 1:
-                raise QueryError("E702", f"a range step must be a positive whole number, "
-                                         f"got {s}", a.step.span)
+                raise QueryError(
+                    "E702", f"a range step must be a positive whole number, got {s}", a.step.span
+                )
             step = int(s)
         m = (idx >= lo) & (idx <= hi)
         if step > 1:
@@ -644,17 +752,26 @@ class _Eval:
         if isinstance(e, ast.Name) and e.id in self.env.values:
             return self.env.values[e.id]
         if isinstance(e, ast.Name):
-            fields_ = {"course": c.course, "wale": c.wale, "course_end": c.course_end,
-                       "wale_end": c.wale_end, "side": self.g.side.astype(np.int64),
-                       "gauge": self.g.course_gauge[self.g.course].astype(np.int64),
-                       "node": self.g.node.astype(np.int64),
-                       "index": np.arange(self.g.n_stitches)}
+            fields_ = {
+                "course": c.course,
+                "wale": c.wale,
+                "course_end": c.course_end,
+                "wale_end": c.wale_end,
+                "side": self.g.side.astype(np.int64),
+                "gauge": self.g.course_gauge[self.g.course].astype(np.int64),
+                "node": self.g.node.astype(np.int64),
+                "index": np.arange(self.g.n_stitches),
+            }
             if e.id in fields_:
                 return fields_[e.id]
             if e.id in ("front", "back"):
                 return 0 if e.id == "front" else 1
-            raise QueryError("E704", f"`{e.id}` is not a stitch field", e.span,
-                             hint="fields: " + ", ".join(fields_))
+            raise QueryError(
+                "E704",
+                f"`{e.id}` is not a stitch field",
+                e.span,
+                hint="fields: " + ", ".join(fields_),
+            )
         if isinstance(e, ast.Unary):
             v = np.asarray(self.pred(e.operand))
             if e.op == "not":
@@ -664,8 +781,10 @@ class _Eval:
             a, b = np.asarray(self.pred(e.left)), np.asarray(self.pred(e.right))
             if e.op in ("and", "or"):
                 f = np.logical_and if e.op == "and" else np.logical_or
-                return f(_typed(a, True, f"`{e.op}` needs booleans", e.left.span),
-                         _typed(b, True, f"`{e.op}` needs booleans", e.right.span))
+                return f(
+                    _typed(a, True, f"`{e.op}` needs booleans", e.left.span),
+                    _typed(b, True, f"`{e.op}` needs booleans", e.right.span),
+                )
             if e.op in ("==", "!="):
                 # as in the scalar evaluator: a boolean never equals a number
                 if (a.dtype == bool) != (b.dtype == bool):
@@ -680,8 +799,11 @@ class _Eval:
                     return arith.vector(e.op, x, y)
                 except arith.ArithError as exc:
                     raise QueryError(exc.code, exc.message, e.span) from None
-        raise QueryError("E703", "a filter predicate uses numbers, stitch fields and "
-                                 "arithmetic or comparisons", e.span)
+        raise QueryError(
+            "E703",
+            "a filter predicate uses numbers, stitch fields and arithmetic or comparisons",
+            e.span,
+        )
 
 
 def _typed(v: np.ndarray, boolean: bool, what: str, span: Span) -> np.ndarray:
@@ -694,9 +816,16 @@ def _typed(v: np.ndarray, boolean: bool, what: str, span: Span) -> np.ndarray:
     return v
 
 
-def evaluate_query(g: StitchGraph, node: int | None, q: ast.Node | None,
-                   env: QueryEnv | None, diags: Diagnostics, *,
-                   c: Coords | None = None, within: np.ndarray | None = None) -> np.ndarray:
+def evaluate_query(
+    g: StitchGraph,
+    node: int | None,
+    q: ast.Node | None,
+    env: QueryEnv | None,
+    diags: Diagnostics,
+    *,
+    c: Coords | None = None,
+    within: np.ndarray | None = None,
+) -> np.ndarray:
     """Boolean mask (length `g.n_stitches`) of the stitches `q` selects.
 
     `node` is the index of the layer's node in `g.node_names` (the result is then a subset
@@ -715,9 +844,16 @@ def evaluate_query(g: StitchGraph, node: int | None, q: ast.Node | None,
         return np.zeros(g.n_stitches, dtype=bool)
 
 
-def evaluate_frame(g: StitchGraph, node: int | None, q: ast.Node | None,
-                   env: QueryEnv | None, diags: Diagnostics, *, c: Coords | None = None,
-                   within: np.ndarray | None = None) -> Placement | None:
+def evaluate_frame(
+    g: StitchGraph,
+    node: int | None,
+    q: ast.Node | None,
+    env: QueryEnv | None,
+    diags: Diagnostics,
+    *,
+    c: Coords | None = None,
+    within: np.ndarray | None = None,
+) -> Placement | None:
     """The selection of `q` (within `within`) with the coordinates a drawn layer places its
     grid in: course/wale, or a wale/stitch grid's (see the module docstring). None after
     an error (reported in `diags`)."""

@@ -59,8 +59,25 @@ class Placement:
 
 # ---- charts --------------------------------------------------------------------------------
 
-MNEMONICS = ("K", "P", "T", "M", "FR1", "FR2", "FL1", "FL2", "BR1", "BR2", "BL1", "BL2",
-             "XR+", "XR-", "XL+", "XL-", "S")
+MNEMONICS = (
+    "K",
+    "P",
+    "T",
+    "M",
+    "FR1",
+    "FR2",
+    "FL1",
+    "FL2",
+    "BR1",
+    "BR2",
+    "BL1",
+    "BL2",
+    "XR+",
+    "XR-",
+    "XL+",
+    "XL-",
+    "S",
+)
 """The 17 instruction mnemonics a drawn grid may hold (and `.`: leave the stitch)."""
 CROSS_MNEMONICS = ("XR+", "XR-", "XL+", "XL-")
 
@@ -100,8 +117,10 @@ def chart_shape_problems(grid: ast.Grid) -> list[tuple[ast.Node, str]]:
 def chart_values(grid: ast.Grid, value_of) -> np.ndarray:
     """The grid's cells mapped by `value_of(text) -> int` (OFF cells: -1), top row first.
     The grid must be rectangular (see `chart_shape_problems`)."""
-    return np.array([[OFF if c.text in OFF_CELLS else value_of(c.text) for c in row]
-                     for row in grid.rows], dtype=np.int64).reshape(len(grid.rows), -1)
+    return np.array(
+        [[OFF if c.text in OFF_CELLS else value_of(c.text) for c in row] for row in grid.rows],
+        dtype=np.int64,
+    ).reshape(len(grid.rows), -1)
 
 
 # ---- images --------------------------------------------------------------------------------
@@ -127,16 +146,17 @@ def image_channel(path: str, channel: str) -> np.ndarray:
     try:
         with Image.open(path) as im:
             if im.width * im.height > MAX_PIXELS:
-                raise ImageProblem(f"the image is {im.width}x{im.height} pixels; a pattern "
-                                   f"image may have at most {MAX_PIXELS} pixels")
+                raise ImageProblem(
+                    f"the image is {im.width}x{im.height} pixels; a pattern "
+                    f"image may have at most {MAX_PIXELS} pixels"
+                )
             rgba = np.asarray(im.convert("RGBA"), dtype=np.float64) / 255.0
     except FileNotFoundError as err:
         raise ImageProblem(f"no image file `{path}`") from err
     except IsADirectoryError as err:
         raise ImageProblem(f"`{path}` is a directory, not an image") from err
     except UnidentifiedImageError as err:
-        raise ImageProblem(f"`{path}` is not an image Pillow can read (use PNG or JPEG)") \
-            from err
+        raise ImageProblem(f"`{path}` is not an image Pillow can read (use PNG or JPEG)") from err
     except (OSError, ValueError, Image.DecompressionBombError) as err:
         raise ImageProblem(f"cannot read `{path}`: {err}") from err
     if channel in "rgba":
@@ -149,8 +169,23 @@ def image_channel(path: str, channel: str) -> np.ndarray:
 
 # ---- noise ---------------------------------------------------------------------------------
 
-_GRAD = np.array([(1, 1), (-1, 1), (1, -1), (-1, -1), (1, 0), (-1, 0), (1, 0), (-1, 0),
-                  (0, 1), (0, -1), (0, 1), (0, -1)], dtype=np.float64)
+_GRAD = np.array(
+    [
+        (1, 1),
+        (-1, 1),
+        (1, -1),
+        (-1, -1),
+        (1, 0),
+        (-1, 0),
+        (1, 0),
+        (-1, 0),
+        (0, 1),
+        (0, -1),
+        (0, 1),
+        (0, -1),
+    ],
+    dtype=np.float64,
+)
 _F2 = 0.5 * (math.sqrt(3.0) - 1.0)
 _G2 = (3.0 - math.sqrt(3.0)) / 6.0
 _MASK64 = (1 << 64) - 1
@@ -184,22 +219,25 @@ def simplex2(x: np.ndarray, y: np.ndarray, perm: np.ndarray) -> np.ndarray:
     y0 = y - (j - t)
     i1 = (x0 > y0).astype(np.int64)  # lower or upper triangle of the skewed cell
     j1 = 1 - i1
-    corners = ((x0, y0, 0, 0), (x0 - i1 + _G2, y0 - j1 + _G2, i1, j1),
-               (x0 - 1.0 + 2.0 * _G2, y0 - 1.0 + 2.0 * _G2, 1, 1))
+    corners = (
+        (x0, y0, 0, 0),
+        (x0 - i1 + _G2, y0 - j1 + _G2, i1, j1),
+        (x0 - 1.0 + 2.0 * _G2, y0 - 1.0 + 2.0 * _G2, 1, 1),
+    )
     ii = i.astype(np.int64) & 255
     jj = j.astype(np.int64) & 255
     total = np.zeros_like(x)
     for cx, cy, di, dj in corners:
         gi = perm[ii + di + perm[jj + dj]] % 12
         falloff = np.maximum(0.5 - cx * cx - cy * cy, 0.0)
-        total += falloff ** 4 * (_GRAD[gi, 0] * cx + _GRAD[gi, 1] * cy)
+        total += falloff**4 * (_GRAD[gi, 0] * cx + _GRAD[gi, 1] * cy)
     return 70.0 * total
 
 
 # ---- placement -----------------------------------------------------------------------------
 
-def extent(key: np.ndarray, vals: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray,
-                                                                         np.ndarray]:
+
+def extent(key: np.ndarray, vals: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per stitch, the min and max of `vals` over the masked stitches with the same key
     (meaningful on masked stitches only)."""
     lo = np.zeros(vals.shape[0], dtype=np.int64)

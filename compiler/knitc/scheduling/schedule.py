@@ -54,17 +54,26 @@ FRONT, BACK = 0, 1
 
 # ---- the layout families (ch. 6.7.2) -----------------------------------------------------------
 
+
 def circular_shape(n: int, nibble: int) -> tuple[np.ndarray, np.ndarray]:
     """(bed, rel) of the n slots of a ring shape, counter-clockwise from the front-left
     slot: the front slots left to right, then the back slots right to left."""
     h = n // 2
     if n % 2 == 0:
-        front, back = {0: ((0, h - 1), (0, h - 1)), 1: ((1, h - 1), (0, h)),
-                       2: ((0, h), (1, h - 1)), 3: ((1, h), (0, h - 1)),
-                       4: ((0, h - 1), (1, h))}[nibble]
+        front, back = {
+            0: ((0, h - 1), (0, h - 1)),
+            1: ((1, h - 1), (0, h)),
+            2: ((0, h), (1, h - 1)),
+            3: ((1, h), (0, h - 1)),
+            4: ((0, h - 1), (1, h)),
+        }[nibble]
     else:
-        front, back = {0: ((1, h), (0, h)), 1: ((0, h - 1), (0, h)),
-                       2: ((0, h), (1, h)), 3: ((0, h), (0, h - 1))}[nibble]
+        front, back = {
+            0: ((1, h), (0, h)),
+            1: ((0, h - 1), (0, h)),
+            2: ((0, h), (1, h)),
+            3: ((0, h), (0, h - 1)),
+        }[nibble]
     f = np.arange(front[0], front[1] + 1, dtype=np.int32)
     b = np.arange(back[1], back[0] - 1, -1, dtype=np.int32)
     bed = np.concatenate([np.zeros(f.size, np.int8), np.ones(b.size, np.int8)])
@@ -86,8 +95,9 @@ def circular_layouts(n: int, nibble: int, rolls: np.ndarray) -> tuple[np.ndarray
     return sb[idx], so[idx]
 
 
-def flat_layout(n: int, main: int, side: int, spread: int, mirror: int
-                ) -> tuple[np.ndarray, np.ndarray]:
+def flat_layout(
+    n: int, main: int, side: int, spread: int, mirror: int
+) -> tuple[np.ndarray, np.ndarray]:
     """(bed, rel) of a flat cycle of n entries in the simplified C-shape: entries l .. l+main-1
     on `side` at relative needles 0..main-1, the l first entries folded back under the left
     end and the r last ones under the right end (l + r = n - main, split by `spread`);
@@ -95,8 +105,9 @@ def flat_layout(n: int, main: int, side: int, spread: int, mirror: int
     rest = n - main
     left = {0: rest, 1: 0, 2: rest // 2}[spread]
     i = np.arange(n)
-    rel = np.where(i < left, left - 1 - i,
-                   np.where(i < left + main, i - left, main - 1 - (i - left - main)))
+    rel = np.where(
+        i < left, left - 1 - i, np.where(i < left + main, i - left, main - 1 - (i - left - main))
+    )
     bed = np.where((i >= left) & (i < left + main), side, 1 - side).astype(np.int8)
     if mirror:
         rel = main - 1 - rel
@@ -115,8 +126,9 @@ def flat_params(n: int) -> list[tuple[int, int, int, int]]:
     return out
 
 
-def layout(kind: int, n: int, nibble: int, roll: int, main: int, side: int, spread: int,
-           mirror: int) -> tuple[np.ndarray, np.ndarray]:
+def layout(
+    kind: int, n: int, nibble: int, roll: int, main: int, side: int, spread: int, mirror: int
+) -> tuple[np.ndarray, np.ndarray]:
     """(bed, rel) of one layout from its parameters."""
     if kind == CIRCULAR:
         b, o = circular_layouts(n, nibble, np.array([roll]))
@@ -129,8 +141,14 @@ def aligned(kind: int, n: int, nibble: int, main: int) -> bool:
     return (n % 2 == 0 and nibble == 0) if kind == CIRCULAR else main == n
 
 
-def pair_cost(align_a: int, align_b: int, bed_a: np.ndarray, rel_a: np.ndarray,
-              bed_b: np.ndarray, rel_b: np.ndarray) -> tuple[int, int, int]:
+def pair_cost(
+    align_a: int,
+    align_b: int,
+    bed_a: np.ndarray,
+    rel_a: np.ndarray,
+    bed_b: np.ndarray,
+    rel_b: np.ndarray,
+) -> tuple[int, int, int]:
     """The cost tuple of eq. 6.21 between two layouts, given the places of their related
     pairs (pair i: (bed_a[i], rel_a[i]) in one layout, (bed_b[i], rel_b[i]) in the other):
     (Align(Bi) + Align(Bj), loops that change bed, loops that change needle once the two
@@ -143,6 +161,7 @@ def pair_cost(align_a: int, align_b: int, bed_a: np.ndarray, rel_a: np.ndarray,
 
 
 # ---- the IR ---------------------------------------------------------------------------------
+
 
 @dataclass
 class Schedule:
@@ -187,12 +206,19 @@ class Schedule:
         circ = self.kind == CIRCULAR
         n = self.slices.length
         al = np.where(circ, (n % 2 == 0) & (self.nibble == 0), self.main == n)
-        return {"slices": self.n_slices, "entries": int(self.bed.shape[0]),
-                "width": self.width, "needles": self.needles,
-                "circular": int(np.count_nonzero(circ)), "flat": int(np.count_nonzero(~circ)),
-                "aligned": int(np.count_nonzero(al)), "reused": int(np.count_nonzero(self.reuse)),
-                "half_gauge": int(np.count_nonzero(self.step == 2)),
-                "alignments": int(self.align_slice.shape[0]), **self.cost}
+        return {
+            "slices": self.n_slices,
+            "entries": int(self.bed.shape[0]),
+            "width": self.width,
+            "needles": self.needles,
+            "circular": int(np.count_nonzero(circ)),
+            "flat": int(np.count_nonzero(~circ)),
+            "aligned": int(np.count_nonzero(al)),
+            "reused": int(np.count_nonzero(self.reuse)),
+            "half_gauge": int(np.count_nonzero(self.step == 2)),
+            "alignments": int(self.align_slice.shape[0]),
+            **self.cost,
+        }
 
 
 def positions(sched: Schedule, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -201,8 +227,7 @@ def positions(sched: Schedule, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarr
     SUSPENDED loop waits."""
     a = int(sched.slices.start[k])
     b = a + int(sched.slices.length[k])
-    return (sched.slices.stitch[a:b], sched.slices.state[a:b], sched.bed[a:b],
-            sched.needle[a:b])
+    return (sched.slices.stitch[a:b], sched.slices.state[a:b], sched.bed[a:b], sched.needle[a:b])
 
 
 def alignments(sched: Schedule, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -213,6 +238,7 @@ def alignments(sched: Schedule, k: int) -> tuple[np.ndarray, np.ndarray, np.ndar
 
 
 # ---- loops on the bed ---------------------------------------------------------------------------
+
 
 @dataclass
 class Loops:
@@ -228,8 +254,9 @@ class Loops:
     cons_entry: np.ndarray  # int64
 
 
-def _represented(g: StitchGraph, sl: Slices, k: int, made: np.ndarray, end: np.ndarray,
-                 mark: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _represented(
+    g: StitchGraph, sl: Slices, k: int, made: np.ndarray, end: np.ndarray, mark: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """(loops, entries) represented in slice k, one entry per loop: a stitch's own entry
     (ACTIVE: made here; SUSPENDED), else the entry of the next wale that will take it in
     (an increase's loop goes into its first next wale, as the code generator does, or into
@@ -295,9 +322,11 @@ def held_loops(g: StitchGraph, sl: Slices) -> Loops:
     return Loops(cols[0].astype(np.int32), *cols[1:])
 
 
-def placements(g: StitchGraph, sched: Schedule
-               ) -> Iterator[tuple[int, tuple[np.ndarray, np.ndarray, np.ndarray],
-                                   tuple[np.ndarray, np.ndarray, np.ndarray]]]:
+def placements(
+    g: StitchGraph, sched: Schedule
+) -> Iterator[
+    tuple[int, tuple[np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
+]:
     """For each slice k in order: (k, alignments, represented), each as (loops, beds,
     needles): the held loops that move out of the way before slice k, then every loop
     slice k's cycle stands for, at the place the slice wants it (a loop of a stitch that
@@ -311,8 +340,9 @@ def placements(g: StitchGraph, sched: Schedule
         yield k, alignments(sched, k), (rep, sched.bed[en], sched.needle[en])
 
 
-def moves(g: StitchGraph, sched: Schedule
-          ) -> Iterator[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+def moves(
+    g: StitchGraph, sched: Schedule
+) -> Iterator[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
     """The loops that change place, replaying `placements`: for each slice k, first for its
     alignments then for its represented loops, (k, loops, from_bed, from_needle, to_bed,
     to_needle) of the loops already on the bed whose place changes."""
@@ -357,8 +387,7 @@ def knit_positions(sched: Schedule, n_stitches: int) -> tuple[np.ndarray, np.nda
     return bed, needle
 
 
-def carriage_directions(sched: Schedule, stitch: np.ndarray, yarn: np.ndarray
-                        ) -> np.ndarray:
+def carriage_directions(sched: Schedule, stitch: np.ndarray, yarn: np.ndarray) -> np.ndarray:
     """The carriage direction (+1 rightward) at each trace visit (`stitch`, `yarn`) on the
     needles the schedule knits it on. The trace's own directions are the design frame's; a
     layout may lay a ring rotated or a row mirrored, and the carriage follows the needles.
@@ -392,8 +421,9 @@ def carriage_directions(sched: Schedule, stitch: np.ndarray, yarn: np.ndarray
     prv = np.maximum.accumulate(np.where(step != 0, ar, -1))
     from_next = np.where(nxt <= group_end, step[np.minimum(nxt, n - 1)], 0)
     from_prev = np.where(prv >= group_start, step[np.maximum(prv, 0)], 0)
-    d = np.where(step != 0, step, np.where(from_next != 0, from_next,
-                                           np.where(from_prev != 0, from_prev, 1)))
+    d = np.where(
+        step != 0, step, np.where(from_next != 0, from_next, np.where(from_prev != 0, from_prev, 1))
+    )
     after = np.r_[step[1:], 0] * ~ends  # the next move, when it is along this visit's bed
     for i in np.flatnonzero(~along & same_yarn).tolist():  # the folds, in order
         nm, arr = int(after[i]), int(came[i])
@@ -407,30 +437,53 @@ def carriage_directions(sched: Schedule, stitch: np.ndarray, yarn: np.ndarray
 
 # ---- verifier ---------------------------------------------------------------------------------
 
+
 def verify(g: StitchGraph, sched: Schedule) -> list[str]:
     """Invariants of a schedule (module docstring); empty = valid."""
     sl = sched.slices
     problems: list[str] = []
     ns, ne = sl.n_slices, sl.stitch.shape[0]
-    per_slice = ("kind", "nibble", "roll", "main", "side", "spread", "mirror", "reuse",
-                 "offset", "step")
-    if any(getattr(sched, f).shape != (ns,) for f in per_slice) or \
-            any(getattr(sched, f).shape != (ne,) for f in ("bed", "rel", "needle")):
+    per_slice = (
+        "kind",
+        "nibble",
+        "roll",
+        "main",
+        "side",
+        "spread",
+        "mirror",
+        "reuse",
+        "offset",
+        "step",
+    )
+    if any(getattr(sched, f).shape != (ns,) for f in per_slice) or any(
+        getattr(sched, f).shape != (ne,) for f in ("bed", "rel", "needle")
+    ):
         return ["schedule arrays disagree with the slices in length"]
     for k in range(ns):
         a, n = int(sl.start[k]), int(sl.length[k])
-        want = layout(int(sched.kind[k]), n, int(sched.nibble[k]), int(sched.roll[k]),
-                      int(sched.main[k]), int(sched.side[k]), int(sched.spread[k]),
-                      int(sched.mirror[k]))
-        if not (np.array_equal(want[0], sched.bed[a:a + n])
-                and np.array_equal(want[1], sched.rel[a:a + n])):
+        want = layout(
+            int(sched.kind[k]),
+            n,
+            int(sched.nibble[k]),
+            int(sched.roll[k]),
+            int(sched.main[k]),
+            int(sched.side[k]),
+            int(sched.spread[k]),
+            int(sched.mirror[k]),
+        )
+        if not (
+            np.array_equal(want[0], sched.bed[a : a + n])
+            and np.array_equal(want[1], sched.rel[a : a + n])
+        ):
             problems.append(f"slice {k}: the layout is not the one its parameters name")
             break
         if bool(sched.kind[k] == CIRCULAR) != bool(sl.circular[k]):
-            problems.append(f"slice {k}: a {KIND_NAMES[int(sched.kind[k])]} layout for a "
-                            f"{'ring' if sl.circular[k] else 'flat cycle'}")
+            problems.append(
+                f"slice {k}: a {KIND_NAMES[int(sched.kind[k])]} layout for a "
+                f"{'ring' if sl.circular[k] else 'flat cycle'}"
+            )
             break
-        r = sched.rel[a:a + n].astype(np.int64)
+        r = sched.rel[a : a + n].astype(np.int64)
         d = np.abs(np.diff(np.r_[r, r[:1]] if sl.circular[k] else r))
         if d.size and d.max() > 1:
             problems.append(f"slice {k}: consecutive entries more than one needle apart")
@@ -478,8 +531,10 @@ def _verify_occupancy(g: StitchGraph, sched: Schedule) -> list[str]:
         found = np.isin(rk, ik)
         if not np.all(found):
             j = o[int(np.flatnonzero(~found)[0])]
-            problems.append(f"alignment of stitch {int(sched.align_stitch[j])} before slice "
-                            f"{int(sched.align_slice[j])} moves a loop that is not held there")
+            problems.append(
+                f"alignment of stitch {int(sched.align_stitch[j])} before slice "
+                f"{int(sched.align_slice[j])} moves a loop that is not held there"
+            )
         at = np.searchsorted(rk, ik, side="right") - 1
         ok = at >= 0
         atc = np.maximum(at, 0)
@@ -501,16 +556,24 @@ def _verify_occupancy(g: StitchGraph, sched: Schedule) -> list[str]:
     return problems
 
 
-
 # ---- stable JSON --------------------------------------------------------------------------
+
 
 def layout_json(sched: Schedule, k: int) -> dict[str, Any]:
     n = int(sched.slices.length[k])
     if sched.kind[k] == CIRCULAR:
-        return {"kind": "circular", "nibble": nibble_name(n, int(sched.nibble[k])),
-                "roll": int(sched.roll[k])}
-    return {"kind": "flat", "main": int(sched.main[k]), "side": "fb"[int(sched.side[k])],
-            "spread": SPREADS[int(sched.spread[k])], "mirror": bool(sched.mirror[k])}
+        return {
+            "kind": "circular",
+            "nibble": nibble_name(n, int(sched.nibble[k])),
+            "roll": int(sched.roll[k]),
+        }
+    return {
+        "kind": "flat",
+        "main": int(sched.main[k]),
+        "side": "fb"[int(sched.side[k])],
+        "spread": SPREADS[int(sched.spread[k])],
+        "mirror": bool(sched.mirror[k]),
+    }
 
 
 def to_json(g: StitchGraph, sched: Schedule) -> dict[str, Any]:
@@ -520,14 +583,24 @@ def to_json(g: StitchGraph, sched: Schedule) -> dict[str, Any]:
     out = []
     for k in range(sl.n_slices):
         st, state, bed, needle = positions(sched, k)
-        out.append({
-            "id": k, "node": g.node_names[int(sl.node[k])], "layout": layout_json(sched, k),
-            "reuse": bool(sched.reuse[k]), "offset": int(sched.offset[k]),
-            "gauge": int(sched.step[k]),
-            "cycle": [[int(s), STATE_NAMES[int(x)][0], f"{'fb'[int(b)]}{int(n)}"]
-                      for s, x, b, n in zip(st, state, bed, needle, strict=True)],
-        })
-    al = [{"slice": int(k), "stitch": int(s), "to": f"{'fb'[int(b)]}{int(n)}"}
-          for k, s, b, n in zip(sched.align_slice, sched.align_stitch, sched.align_bed,
-                                sched.align_needle, strict=True)]
+        out.append(
+            {
+                "id": k,
+                "node": g.node_names[int(sl.node[k])],
+                "layout": layout_json(sched, k),
+                "reuse": bool(sched.reuse[k]),
+                "offset": int(sched.offset[k]),
+                "gauge": int(sched.step[k]),
+                "cycle": [
+                    [int(s), STATE_NAMES[int(x)][0], f"{'fb'[int(b)]}{int(n)}"]
+                    for s, x, b, n in zip(st, state, bed, needle, strict=True)
+                ],
+            }
+        )
+    al = [
+        {"slice": int(k), "stitch": int(s), "to": f"{'fb'[int(b)]}{int(n)}"}
+        for k, s, b, n in zip(
+            sched.align_slice, sched.align_stitch, sched.align_bed, sched.align_needle, strict=True
+        )
+    ]
     return {"stats": sched.stats(), "slices": out, "alignments": al}

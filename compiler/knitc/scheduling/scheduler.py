@@ -86,8 +86,15 @@ ORDERS_CAP = 5040
 """Most node orders the bridge search enumerates."""
 
 
-def schedule(g: StitchGraph, slices: Slices, *, needles: int, diags: Diagnostics,
-             max_sweeps: int = MAX_SWEEPS, gap: int = GAP) -> Schedule | None:
+def schedule(
+    g: StitchGraph,
+    slices: Slices,
+    *,
+    needles: int,
+    diags: Diagnostics,
+    max_sweeps: int = MAX_SWEEPS,
+    gap: int = GAP,
+) -> Schedule | None:
     """The schedule of `slices` on a machine of `needles` needles; None (with E601) if it
     does not fit. `gap`: free needles kept around a changing active block."""
     ctx = _Ctx(g, slices)
@@ -103,24 +110,42 @@ def schedule(g: StitchGraph, slices: Slices, *, needles: int, diags: Diagnostics
         need = wide.width() if ctx.ne else 0
         if need > needles:
             k = off.failed_slice
-            span = g.spans[int(g.span[int(slices.stitch[int(slices.start[k])])])] \
-                if k is not None and slices.length[k] else None
-            diags.error("E601", f"the garment needs {need} needles but the machine has "
-                        f"{needles}", span, hint="narrow the design, knit branches in full "
-                        "gauge, or use a wider machine")
+            span = (
+                g.spans[int(g.span[int(slices.stitch[int(slices.start[k])])])]
+                if k is not None and slices.length[k]
+                else None
+            )
+            diags.error(
+                "E601",
+                f"the garment needs {need} needles but the machine has {needles}",
+                span,
+                hint="narrow the design, knit branches in full gauge, or use a wider machine",
+            )
             return None
         off = wide
     needle = off.needle()
     a_slice, a_stitch, a_bed, a_needle = off.alignments()
     sched = Schedule(
-        slices=slices, needles=int(needles), kind=lay.kind.astype(np.int8),
-        nibble=lay.nibble.astype(np.int8), roll=lay.roll.astype(np.int32),
-        main=lay.main.astype(np.int32), side=lay.side.astype(np.int8),
-        spread=lay.spread.astype(np.int8), mirror=lay.mirror.astype(np.int8),
-        reuse=lay.reuse.copy(), offset=off.x[:ctx.ns].astype(np.int32),
-        step=ctx.step.astype(np.int8), bed=lay.bed.astype(np.int8),
-        rel=lay.rel.astype(np.int32), needle=needle.astype(np.int32),
-        align_slice=a_slice, align_stitch=a_stitch, align_bed=a_bed, align_needle=a_needle)
+        slices=slices,
+        needles=int(needles),
+        kind=lay.kind.astype(np.int8),
+        nibble=lay.nibble.astype(np.int8),
+        roll=lay.roll.astype(np.int32),
+        main=lay.main.astype(np.int32),
+        side=lay.side.astype(np.int8),
+        spread=lay.spread.astype(np.int8),
+        mirror=lay.mirror.astype(np.int8),
+        reuse=lay.reuse.copy(),
+        offset=off.x[: ctx.ns].astype(np.int32),
+        step=ctx.step.astype(np.int8),
+        bed=lay.bed.astype(np.int8),
+        rel=lay.rel.astype(np.int32),
+        needle=needle.astype(np.int32),
+        align_slice=a_slice,
+        align_stitch=a_stitch,
+        align_bed=a_bed,
+        align_needle=a_needle,
+    )
     al, ro, sh = lay.total_cost()
     mr, ms = ir.loop_moves(g, sched)
     sched.cost = {"align": al, "roll": ro, "shift": sh, "moves_roll": mr, "moves_shift": ms}
@@ -128,6 +153,7 @@ def schedule(g: StitchGraph, slices: Slices, *, needles: int, diags: Diagnostics
 
 
 # ---- relations between slices -----------------------------------------------------------------
+
 
 class _Ctx:
     """The slices as the stages see them: entry → slice, each entry's related previous
@@ -182,7 +208,8 @@ class _Ctx:
         self.e_first = first
         self.e_count = counts
         self.edge_of: dict[tuple[int, int], int] = {
-            (int(a), int(b)): i for i, (a, b) in enumerate(zip(self.e_a, self.e_b, strict=True))}
+            (int(a), int(b)): i for i, (a, b) in enumerate(zip(self.e_a, self.e_b, strict=True))
+        }
         self.ins: list[list[int]] = [[] for _ in range(self.ns)]
         self.outs: list[list[int]] = [[] for _ in range(self.ns)]
         for i, (a, b) in enumerate(zip(self.e_a.tolist(), self.e_b.tolist(), strict=True)):
@@ -192,7 +219,7 @@ class _Ctx:
     def edge_pairs(self, e: int) -> tuple[np.ndarray, np.ndarray]:
         f = int(self.e_first[e])
         c = int(self.e_count[e])
-        return self.pa[f:f + c], self.pb[f:f + c]
+        return self.pa[f : f + c], self.pb[f : f + c]
 
     def entries(self, k: int) -> slice:
         a = int(self.start[k])
@@ -200,6 +227,7 @@ class _Ctx:
 
 
 # ---- layout candidates and their costs ----------------------------------------------------------
+
 
 @dataclass
 class _Cands:
@@ -210,8 +238,9 @@ class _Cands:
     tie: np.ndarray  # (C,) int64: preference among equal costs (lower first)
 
 
-def _slot_rolls(n: int, nibble: int, ib: np.ndarray, ref_bed: np.ndarray,
-                ref_rel: np.ndarray) -> int:
+def _slot_rolls(
+    n: int, nibble: int, ib: np.ndarray, ref_bed: np.ndarray, ref_rel: np.ndarray
+) -> int:
     """The roll that puts most related entries in the slot of this shape nearest to their
     reference place, once both are centred: the best alignment a window is searched around."""
     sb, so = ir.circular_shape(n, nibble)
@@ -229,8 +258,9 @@ def _slot_rolls(n: int, nibble: int, ib: np.ndarray, ref_bed: np.ndarray,
     return int(np.argmax(np.bincount(r, minlength=n)))
 
 
-def _circular_cands(n: int, ib: np.ndarray, ref_bed: np.ndarray, ref_rel: np.ndarray,
-                    window: int | None) -> _Cands:
+def _circular_cands(
+    n: int, ib: np.ndarray, ref_bed: np.ndarray, ref_rel: np.ndarray, window: int | None
+) -> _Cands:
     """Ring layouts: every roll (window None, or a small ring), else `window` rolls on each
     side of each nibble's best alignment."""
     params, beds, rels, aligns, ties = [], [], [], [], []
@@ -250,12 +280,18 @@ def _circular_cands(n: int, ib: np.ndarray, ref_bed: np.ndarray, ref_rel: np.nda
         rels.append(o.astype(np.int64))
         aligns.append(np.full(rolls.size, 0 if ir.aligned(CIRCULAR, n, nb, 0) else 1))
         ties.append(dist * 8 + nb)
-    return _Cands(np.concatenate(params), np.concatenate(beds), np.concatenate(rels),
-                  np.concatenate(aligns), np.concatenate(ties))
+    return _Cands(
+        np.concatenate(params),
+        np.concatenate(beds),
+        np.concatenate(rels),
+        np.concatenate(aligns),
+        np.concatenate(ties),
+    )
 
 
-def _flat_cands(n: int, ib: np.ndarray, ref_bed: np.ndarray, ref_rel: np.ndarray,
-                full: bool) -> _Cands:
+def _flat_cands(
+    n: int, ib: np.ndarray, ref_bed: np.ndarray, ref_rel: np.ndarray, full: bool
+) -> _Cands:
     """C-shapes: all of them for a short row (or when asked), else the unfolded rows and
     the folds within a few entries of the related entries' share of one bed."""
     allp = ir.flat_params(n)
@@ -273,15 +309,16 @@ def _flat_cands(n: int, ib: np.ndarray, ref_bed: np.ndarray, ref_rel: np.ndarray
         params[i] = (FLAT, -1, 0, m, s, sp, mi)
         beds[i], rels[i] = ir.flat_layout(n, m, s, sp, mi)
     align = (params[:, 3] != n).astype(np.int64)
-    majority = int(np.argmax(np.bincount(ref_bed.astype(np.int64), minlength=2))) \
-        if ib.size else 0
-    tie = (np.abs(params[:, 3] - n) * 4 + (params[:, 4] != majority) * 2
-           + (params[:, 6] != (inc < 0)))
+    majority = int(np.argmax(np.bincount(ref_bed.astype(np.int64), minlength=2))) if ib.size else 0
+    tie = (
+        np.abs(params[:, 3] - n) * 4 + (params[:, 4] != majority) * 2 + (params[:, 6] != (inc < 0))
+    )
     return _Cands(params, beds, rels, align, tie)
 
 
-def _costs(c: _Cands, ib: np.ndarray, ref_bed: np.ndarray, ref_rel: np.ndarray, step: int
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _costs(
+    c: _Cands, ib: np.ndarray, ref_bed: np.ndarray, ref_rel: np.ndarray, step: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(roll, shift, delta) of every candidate against reference places of its entries
     `ib` (relative physical needles): loops changing bed, and loops changing needle once
     the candidate, expanded to its gauge `step`, is moved by the translation `delta` that
@@ -309,6 +346,7 @@ def _add(a: Cost, b: Cost) -> Cost:
 
 # ---- the layout stage ---------------------------------------------------------------------------
 
+
 class _Layouts:
     def __init__(self, ctx: _Ctx) -> None:
         self.ctx = ctx
@@ -327,10 +365,18 @@ class _Layouts:
 
     # -- setting layouts
 
-    def _set(self, k: int, p: np.ndarray, bed: np.ndarray, rel: np.ndarray,
-             reuse: bool = False) -> None:
-        self.kind[k], self.nibble[k], self.roll[k], self.main[k], self.side[k], \
-            self.spread[k], self.mirror[k] = (int(x) for x in p)
+    def _set(
+        self, k: int, p: np.ndarray, bed: np.ndarray, rel: np.ndarray, reuse: bool = False
+    ) -> None:
+        (
+            self.kind[k],
+            self.nibble[k],
+            self.roll[k],
+            self.main[k],
+            self.side[k],
+            self.spread[k],
+            self.mirror[k],
+        ) = (int(x) for x in p)
         if self.kind[k] == FLAT:
             self.nibble[k] = -1
         e = self.ctx.entries(k)
@@ -339,18 +385,28 @@ class _Layouts:
         self.done[k] = True
 
     def params(self, k: int) -> np.ndarray:
-        return np.array([self.kind[k], self.nibble[k], self.roll[k], self.main[k],
-                         self.side[k], self.spread[k], self.mirror[k]], np.int64)
+        return np.array(
+            [
+                self.kind[k],
+                self.nibble[k],
+                self.roll[k],
+                self.main[k],
+                self.side[k],
+                self.spread[k],
+                self.mirror[k],
+            ],
+            np.int64,
+        )
 
     def align_of(self, k: int) -> int:
         n = int(self.ctx.length[k])
-        return 0 if ir.aligned(int(self.kind[k]), n, int(self.nibble[k]),
-                               int(self.main[k])) else 1
+        return 0 if ir.aligned(int(self.kind[k]), n, int(self.nibble[k]), int(self.main[k])) else 1
 
     # -- candidates, fits and reuse
 
-    def cands(self, k: int, ib: np.ndarray, ref_bed: np.ndarray, ref_rel: np.ndarray,
-              window: int | None) -> _Cands:
+    def cands(
+        self, k: int, ib: np.ndarray, ref_bed: np.ndarray, ref_rel: np.ndarray, window: int | None
+    ) -> _Cands:
         n = int(self.ctx.length[k])
         if self.ctx.sl.circular[k]:
             return _circular_cands(n, ib, ref_bed, ref_rel, window)
@@ -362,8 +418,14 @@ class _Layouts:
         step = int(self.ctx.step[k])
         return rel * step + (bed == BACK) * (step == 2)
 
-    def fit(self, k: int, ib: np.ndarray, ref_bed: np.ndarray, ref_rel: np.ndarray,
-            window: int | None = WINDOW) -> tuple[int, Cost, int, _Cands]:
+    def fit(
+        self,
+        k: int,
+        ib: np.ndarray,
+        ref_bed: np.ndarray,
+        ref_rel: np.ndarray,
+        window: int | None = WINDOW,
+    ) -> tuple[int, Cost, int, _Cands]:
         """The best candidate of slice k against reference places (bed, relative physical
         needle) of its entries `ib` (local indices): (index, (align, roll, shift), delta,
         candidates)."""
@@ -381,8 +443,9 @@ class _Layouts:
         n = int(self.ctx.length[k])
         ib = np.arange(n)
         hint = self.phys(k, self.ctx.hint_bed[e], self.ctx.hint_rel[e])
-        i, _, _, c = self.fit(k, ib, self.ctx.hint_bed[e], hint, None
-                              if n <= FULL_ROLLS else HUB_WINDOW)
+        i, _, _, c = self.fit(
+            k, ib, self.ctx.hint_bed[e], hint, None if n <= FULL_ROLLS else HUB_WINDOW
+        )
         self._set(k, c.params[i], c.bed[i], c.rel[i])
 
     def refs(self, k: int, other: int, e: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -390,8 +453,11 @@ class _Layouts:
         the other's beds and relative needles there)."""
         pa, pb = self.ctx.edge_pairs(e)
         mine, theirs = (pb, pa) if int(self.ctx.e_b[e]) == k else (pa, pb)
-        return (mine - self.ctx.start[k], self.bed[theirs],
-                self.phys(other, self.bed[theirs], self.rel[theirs]))
+        return (
+            mine - self.ctx.start[k],
+            self.bed[theirs],
+            self.phys(other, self.bed[theirs], self.rel[theirs]),
+        )
 
     def reuse_shift(self, a: int, b: int) -> int | None:
         """Whether b can take a's layout (same cardinality, related one to one in the same
@@ -512,8 +578,9 @@ class _Layouts:
         ia, ib = pa - self.ctx.start[k], pb - self.ctx.start[nxt]
         best: tuple | None = None
         for i in np.argsort(c.align * (1 << 20) + c.tie, kind="stable").tolist():
-            j, cost, _, cn = self.fit(nxt, ib, c.bed[i][ia],
-                                      self.phys(k, c.bed[i][ia], c.rel[i][ia]))
+            j, cost, _, cn = self.fit(
+                nxt, ib, c.bed[i][ia], self.phys(k, c.bed[i][ia], c.rel[i][ia])
+            )
             key = (int(c.align[i]) + cost[0], cost[1], cost[2], int(c.tie[i]))
             if best is None or key < best[0]:
                 best = (key, i, j, cn)
@@ -560,8 +627,7 @@ class _Layouts:
             bound: Cost = (int(hc.align[i]), 0, 0)
             if best is not None and bound >= best[0]:
                 continue
-            if valid is not None and _induced_order(labels[0], labels[1],
-                                                    hc.rel[i]) not in valid:
+            if valid is not None and _induced_order(labels[0], labels[1], hc.rel[i]) not in valid:
                 continue
             got = self.try_hub(hub, hc, i, order[1:], adj, best[0] if best else None)
             if got is not None and (best is None or got[0] < best[0]):
@@ -575,14 +641,21 @@ class _Layouts:
         for k, (p, b, r) in best[1].items():
             self._set(k, p, b, r)
 
-    def try_hub(self, hub: int, hc: _Cands, i: int, rest: list[int],
-                adj: dict[int, list[tuple[int, int]]], bound: Cost | None
-                ) -> tuple[Cost, dict] | None:
+    def try_hub(
+        self,
+        hub: int,
+        hc: _Cands,
+        i: int,
+        rest: list[int],
+        adj: dict[int, list[tuple[int, int]]],
+        bound: Cost | None,
+    ) -> tuple[Cost, dict] | None:
         """Branch: the hub in candidate i, then each other slice of the group fitted to the
         ones already placed (in the hub's frame); None as soon as the partial cost reaches
         `bound`."""
         frame: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {
-            hub: (hc.params[i], hc.bed[i], self.phys(hub, hc.bed[i], hc.rel[i]))}
+            hub: (hc.params[i], hc.bed[i], self.phys(hub, hc.bed[i], hc.rel[i]))
+        }
         total: Cost = (int(hc.align[i]), 0, 0)
         for k in rest:
             ibs, rbs, rrs = [], [], []
@@ -603,8 +676,19 @@ class _Layouts:
             frame[k] = (c.params[j], c.bed[j], self.phys(k, c.bed[j], c.rel[j]) - delta)
         out = {}
         for k, (p, _b, _r) in frame.items():
-            out[k] = (p, *ir.layout(int(p[0]), int(self.ctx.length[k]), int(p[1]), int(p[2]),
-                                    int(p[3]), int(p[4]), int(p[5]), int(p[6])))
+            out[k] = (
+                p,
+                *ir.layout(
+                    int(p[0]),
+                    int(self.ctx.length[k]),
+                    int(p[1]),
+                    int(p[2]),
+                    int(p[3]),
+                    int(p[4]),
+                    int(p[5]),
+                    int(p[6]),
+                ),
+            )
         return total, out
 
     def fit_to_fixed(self, k: int, nbrs: list[tuple[int, int]]) -> None:
@@ -615,12 +699,10 @@ class _Layouts:
                 ibs.append(ib)
                 rbs.append(rb)
                 rrs.append(rr)
-        i, _, _, c = self.fit(k, np.concatenate(ibs), np.concatenate(rbs),
-                              np.concatenate(rrs))
+        i, _, _, c = self.fit(k, np.concatenate(ibs), np.concatenate(rbs), np.concatenate(rrs))
         self._set(k, c.params[i], c.bed[i], c.rel[i])
 
-    def hub_labels(self, hub: int, nbrs: list[tuple[int, int]]
-                   ) -> tuple[np.ndarray, np.ndarray]:
+    def hub_labels(self, hub: int, nbrs: list[tuple[int, int]]) -> tuple[np.ndarray, np.ndarray]:
         """Per hub entry the node across the interface it relates to (-1: none or the hub's
         own node), and the related stitch there (for the bridge test)."""
         ctx = self.ctx
@@ -647,17 +729,26 @@ class _Layouts:
         for e in range(ctx.e_a.shape[0]):
             a, b = int(ctx.e_a[e]), int(ctx.e_b[e])
             pa, pb = ctx.edge_pairs(e)
-            total = _add(total, ir.pair_cost(
-                self.align_of(a), self.align_of(b), self.bed[pa],
-                self.phys(a, self.bed[pa], self.rel[pa]), self.bed[pb],
-                self.phys(b, self.bed[pb], self.rel[pb])))
+            total = _add(
+                total,
+                ir.pair_cost(
+                    self.align_of(a),
+                    self.align_of(b),
+                    self.bed[pa],
+                    self.phys(a, self.bed[pa], self.rel[pa]),
+                    self.bed[pb],
+                    self.phys(b, self.bed[pb], self.rel[pb]),
+                ),
+            )
         return total
 
 
 # ---- bridges and node orders (Fig. 6-23) ---------------------------------------------------------
 
-def hub_bridges(g: StitchGraph, circular: bool, labels: tuple[np.ndarray, np.ndarray]
-                ) -> tuple[list[int], set[frozenset[int]]]:
+
+def hub_bridges(
+    g: StitchGraph, circular: bool, labels: tuple[np.ndarray, np.ndarray]
+) -> tuple[list[int], set[frozenset[int]]]:
     """(nodes, bridges) of a hub cycle: course neighbours of the hub whose related stitches
     across the interface are not course neighbours there. Bridges between two different
     nodes say that those nodes must be side by side on the bed."""
@@ -671,16 +762,14 @@ def hub_bridges(g: StitchGraph, circular: bool, labels: tuple[np.ndarray, np.nda
     j = (i + 1) % n
     ok = (lab[i] >= 0) & (lab[j] >= 0)
     oi, oj = other[i], other[j]
-    adjacent = (g.cnext[np.maximum(oi, 0)] == oj) | (g.cprev[np.maximum(oi, 0)] == oj) | \
-        (oi == oj)
+    adjacent = (g.cnext[np.maximum(oi, 0)] == oj) | (g.cprev[np.maximum(oi, 0)] == oj) | (oi == oj)
     br = ok & ~adjacent & (lab[i] != lab[j])
     for a, b in zip(lab[i][br].tolist(), lab[j][br].tolist(), strict=True):
         bridges.add(frozenset((a, b)))
     return nodes, bridges
 
 
-def valid_orders(nodes: list[int], bridges: set[frozenset[int]]
-                 ) -> set[tuple[int, ...]] | None:
+def valid_orders(nodes: list[int], bridges: set[frozenset[int]]) -> set[tuple[int, ...]] | None:
     """Left-to-right orders of `nodes` in which every bridge joins two neighbours, by
     branch and bound: a partial order is dropped as soon as a placed node cannot have all
     its bridge partners next to it. None (no pruning) when there is nothing to order or
@@ -745,8 +834,7 @@ class _Offsets:
     """Offsets of the slice blocks (variables 0..ns-1) and of the held blocks (ns..): see
     the module docstring."""
 
-    def __init__(self, ctx: _Ctx, lay: _Layouts, needles: int, max_sweeps: int,
-                 gap: int) -> None:
+    def __init__(self, ctx: _Ctx, lay: _Layouts, needles: int, max_sweeps: int, gap: int) -> None:
         self.ctx, self.lay = ctx, lay
         self.needles, self.max_sweeps, self.gap = int(needles), int(max_sweeps), int(gap)
         na = ctx.sl.node[ctx.soe[ctx.pa]]
@@ -802,12 +890,16 @@ class _Offsets:
         block its loops wait in, and the held block and the slice that takes them back."""
         ctx, lp, ns = self.ctx, self.loops, self.ctx.ns
         held = set(self.g_key.tolist())
-        direct = [(b == a + 1 or a * max(ns, 1) + b not in held)
-                  for a, b in zip(ctx.e_a.tolist(), ctx.e_b.tolist(), strict=True)]
+        direct = [
+            (b == a + 1 or a * max(ns, 1) + b not in held)
+            for a, b in zip(ctx.e_a.tolist(), ctx.e_b.tolist(), strict=True)
+        ]
         d_all = self.relp[ctx.pa] - self.relp[ctx.pb]
         c_all = self.lay.bed[ctx.pa] != self.lay.bed[ctx.pb]
-        groups = [(int(ctx.e_a[e]), int(ctx.e_b[e]), int(ctx.e_first[e]), int(ctx.e_count[e]))
-                  for e in np.flatnonzero(direct).tolist()]
+        groups = [
+            (int(ctx.e_a[e]), int(ctx.e_b[e]), int(ctx.e_first[e]), int(ctx.e_count[e]))
+            for e in np.flatnonzero(direct).tolist()
+        ]
         # holds: the loops of one held block, sorted together
         o = np.argsort(self.g_of_hold, kind="stable")
         hg = self.g_of_hold[o]
@@ -832,7 +924,7 @@ class _Offsets:
             ech.append(chg or lo != hi)
 
         for a, b, f, c in groups:
-            add(a, b, d_all[f:f + c], bool(c_all[f:f + c].any()))
+            add(a, b, d_all[f : f + c], bool(c_all[f : f + c].any()))
         for i0, i1 in zip(starts.tolist(), ends.tolist(), strict=True):
             gv = ns + int(hg[i0])
             add(int(self.src[gv]), gv, np.zeros(i1 - i0, np.int64), False)
@@ -854,9 +946,13 @@ class _Offsets:
             if k >= ns or (a >= ns and self.cons[a] != k):
                 continue
             m = int(self.emode[i])  # X_k = X_a + m: a's extent sits at -m relative to k
-            zl, zh = self.zone.get(k, (int(self.any_lo[k]) - self.gap, int(self.any_hi[k]) + self.gap))
-            self.zone[k] = (min(zl, int(self.any_lo[a]) - m - self.gap),
-                            max(zh, int(self.any_hi[a]) - m + self.gap))
+            zl, zh = self.zone.get(
+                k, (int(self.any_lo[k]) - self.gap, int(self.any_hi[k]) + self.gap)
+            )
+            self.zone[k] = (
+                min(zl, int(self.any_lo[a]) - m - self.gap),
+                max(zh, int(self.any_hi[a]) - m + self.gap),
+            )
 
     # -- placement
 
@@ -887,8 +983,11 @@ class _Offsets:
                 xw = int(self.x[w])
                 for b in (0, 1):
                     if self.lo[v, b] <= self.hi[v, b] and self.lo[w, b] <= self.hi[w, b]:
-                        add(xw + int(self.lo[w, b] - self.hi[v, b]),
-                            xw + int(self.hi[w, b] - self.lo[v, b]), w)
+                        add(
+                            xw + int(self.lo[w, b] - self.hi[v, b]),
+                            xw + int(self.hi[w, b] - self.lo[v, b]),
+                            w,
+                        )
                 if v < ns and v in self.zone and w >= ns and not self._related(v, w):
                     zl, zh = self.zone[v]
                     add(xw + int(self.any_lo[w]) - zh, xw + int(self.any_hi[w]) - zl, w)
@@ -903,8 +1002,7 @@ class _Offsets:
         of one split or merge, which the interface layout puts side by side)."""
         node = self.ctx.sl.node
         n, a, b = int(node[k]), int(node[self.src[g]]), int(node[self.cons[g]])
-        return (int(self.cons[g]) == k or n in (a, b) or (n, b) in self.links
-                or (a, n) in self.links)
+        return int(self.cons[g]) == k or n in (a, b) or (n, b) in self.links or (a, n) in self.links
 
     def _free(self, v: int, ordered: bool) -> list[tuple[int, int]]:
         """The free places of v's offset, as closed intervals (see `_forbidden`)."""
@@ -928,9 +1026,10 @@ class _Offsets:
         best = None
         for s0, s1 in segs:
             t = int(min(max(round(target), s0), s1))
-            for c in ((t - 1, t + 1) if self.even[v] and t % 2 else (t,)):
-                if s0 <= c <= s1 and (best is None
-                                      or (abs(c - target), c) < (abs(best - target), best)):
+            for c in (t - 1, t + 1) if self.even[v] and t % 2 else (t,):
+                if s0 <= c <= s1 and (
+                    best is None or (abs(c - target), c) < (abs(best - target), best)
+                ):
                     best = c
         return best
 
@@ -956,8 +1055,9 @@ class _Offsets:
                 return got
         return None
 
-    def _best_in(self, v: int, segs: list[tuple[int, int]], placed_only: bool, seed: float
-                 ) -> int | None:
+    def _best_in(
+        self, v: int, segs: list[tuple[int, int]], placed_only: bool, seed: float
+    ) -> int | None:
         if not segs:
             return None
         sw = sx = 0.0
@@ -1079,4 +1179,3 @@ class _Offsets:
         nd = (self.x[lp.src[m]] + self.relp[lp.src_entry[m]] + dx[m]).astype(np.int32)
         o = np.lexsort((st, sl_))
         return sl_[o], st[o], bed[o], nd[o]
-

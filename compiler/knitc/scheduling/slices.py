@@ -91,13 +91,17 @@ class Slices:
 
     def stats(self) -> dict[str, Any]:
         counts = np.bincount(self.state, minlength=3) if self.state.size else np.zeros(3, int)
-        return {"slices": self.n_slices, "fresh": int(np.count_nonzero(self.fresh)),
-                "entries": int(self.stitch.shape[0]),
-                **{STATE_NAMES[i]: int(counts[i]) for i in range(3)},
-                "shaping": int(self.shaping.sum()) if self.n_slices else 0}
+        return {
+            "slices": self.n_slices,
+            "fresh": int(np.count_nonzero(self.fresh)),
+            "entries": int(self.stitch.shape[0]),
+            **{STATE_NAMES[i]: int(counts[i]) for i in range(3)},
+            "shaping": int(self.shaping.sum()) if self.n_slices else 0,
+        }
 
 
 # ---- stitch properties the slicing rules use (shared by the pass and the verifier) ----------
+
 
 def stitch_shaping(g: StitchGraph) -> np.ndarray:
     """Per stitch: 1 for an increase (two next wales), 1 for a decrease (two previous
@@ -122,8 +126,7 @@ def stitch_shaping(g: StitchGraph) -> np.ndarray:
     gauge = g.course_gauge[g.course]
     spread = inc & (gauge[k0] != gauge)
     gather = dec & (gauge[p0] != gauge)
-    return (inc & ~opening & ~spread).astype(np.int8) + \
-        (dec & ~closing & ~gather).astype(np.int8)
+    return (inc & ~opening & ~spread).astype(np.int8) + (dec & ~closing & ~gather).astype(np.int8)
 
 
 def decreasing(g: StitchGraph) -> np.ndarray:
@@ -159,7 +162,7 @@ def ccw_courses(g: StitchGraph) -> np.ndarray:
     neighbours on one bed; a course without such a step counts as counter-clockwise."""
     ids = np.arange(g.n_stitches)
     j = g.cnext
-    ok = (j >= 0)
+    ok = j >= 0
     jj = np.where(ok, j, 0)
     ok &= (g.side[jj] == g.side) & (g.needle[jj] != g.needle)
     step = np.sign(g.needle[jj].astype(np.int64) - g.needle) * (1 - 2 * g.side.astype(np.int64))
@@ -179,8 +182,9 @@ def ccw_kids(g: StitchGraph, ccw: np.ndarray | None = None) -> np.ndarray:
     two = np.flatnonzero(k[:, 1] >= 0)
     a, b = k[two, 0], k[two, 1]
     forward = ccw[g.course[a]]
-    a_first = np.where(g.cnext[a] == b, forward,
-                       np.where(g.cnext[b] == a, ~forward, (a < b) == forward))
+    a_first = np.where(
+        g.cnext[a] == b, forward, np.where(g.cnext[b] == a, ~forward, (a < b) == forward)
+    )
     # A fold (a flat course closing a tube: collapse) gives each stitch one child on each
     # bed; the child on the parent's own bed comes first, the other one goes round the back.
     fold = g.side[a] != g.side[b]
@@ -204,11 +208,18 @@ def course_cycle(g: StitchGraph, c: int, ccw: np.ndarray) -> np.ndarray:
     the bed as the ring it closes, so its cycle is that ring's order."""
     ids = g.course_ids(c)
     sides = g.side[ids]
-    if not g.course_circular[c] and 0 < int(sides.sum()) < ids.size \
-            and np.count_nonzero(np.diff(sides)) > 1:
+    if (
+        not g.course_circular[c]
+        and 0 < int(sides.sum()) < ids.size
+        and np.count_nonzero(np.diff(sides)) > 1
+    ):
         front, back = ids[sides == 0], ids[sides == 1]
-        return np.concatenate([front[np.argsort(g.needle[front], kind="stable")],
-                               back[np.argsort(-g.needle[back], kind="stable")]])
+        return np.concatenate(
+            [
+                front[np.argsort(g.needle[front], kind="stable")],
+                back[np.argsort(-g.needle[back], kind="stable")],
+            ]
+        )
     if not ccw[c]:
         ids = ids[::-1]
     if g.course_circular[c]:
@@ -219,10 +230,17 @@ def course_cycle(g: StitchGraph, c: int, ccw: np.ndarray) -> np.ndarray:
     return ids
 
 
-def derive(kids: np.ndarray, dec: np.ndarray, st: np.ndarray, state: np.ndarray,
-           done: np.ndarray, passes: int, fold: np.ndarray | None = None,
-           course: np.ndarray | None = None, holding: int = -1
-           ) -> tuple[np.ndarray, np.ndarray]:
+def derive(
+    kids: np.ndarray,
+    dec: np.ndarray,
+    st: np.ndarray,
+    state: np.ndarray,
+    done: np.ndarray,
+    passes: int,
+    fold: np.ndarray | None = None,
+    course: np.ndarray | None = None,
+    holding: int = -1,
+) -> tuple[np.ndarray, np.ndarray]:
     """The cycle derived from (st, state), thesis ch. 6.7.1 "Slice Derivation":
     EXPECTED entries stay; decreasing stitches, ACTIVE or SUSPENDED, become SUSPENDED;
     other ACTIVE stitches are replaced by their 0, 1 or 2 next wales (in `kids` order) as
@@ -242,14 +260,14 @@ def derive(kids: np.ndarray, dec: np.ndarray, st: np.ndarray, state: np.ndarray,
     act = state == ACTIVE
     k = kids[st]
     ending = (k[:, 0] < 0) & (k[:, 1] < 0)
-    held = np.zeros(st.shape[0], bool) if course is None else \
-        ending & fin & (course[st] == holding)
+    held = np.zeros(st.shape[0], bool) if course is None else ending & fin & (course[st] == holding)
     stay = ((state == EXPECTED) & ~fin) | (act & ~fin)
     susp = ((state == SUSPENDED) & (~ending | held)) | (act & fin & (dec[st] | held))
     repl = act & fin & ~dec[st] & ~held
     cand = np.stack([np.where(repl, k[:, 0], st), np.where(repl, k[:, 1], -1)], 1)
-    cstate = np.stack([np.where(susp, SUSPENDED, EXPECTED),
-                       np.full(st.shape[0], EXPECTED)], 1).astype(np.uint8)
+    cstate = np.stack(
+        [np.where(susp, SUSPENDED, EXPECTED), np.full(st.shape[0], EXPECTED)], 1
+    ).astype(np.uint8)
     open_kid = (k >= 0) & (done[np.maximum(k, 0)] < passes)
     valid = np.stack([stay | susp | (repl & open_kid[:, 0]), repl & open_kid[:, 1]], 1)
     if fold is not None and np.any(repl & fold[st]):
@@ -259,13 +277,23 @@ def derive(kids: np.ndarray, dec: np.ndarray, st: np.ndarray, state: np.ndarray,
     else:
         tail_st = tail_state = np.zeros(0, np.int32)
     flat = valid.ravel()
-    return (np.concatenate([cand.ravel()[flat], tail_st]).astype(np.int32),
-            np.concatenate([cstate.ravel()[flat], tail_state]).astype(np.uint8))
+    return (
+        np.concatenate([cand.ravel()[flat], tail_st]).astype(np.int32),
+        np.concatenate([cstate.ravel()[flat], tail_state]).astype(np.uint8),
+    )
 
 
-def fresh_cycle(g: StitchGraph, ccw: np.ndarray, kids: np.ndarray, dec: np.ndarray, s: int,
-                done: np.ndarray, passes: int, fold: np.ndarray | None = None,
-                holding: int = -1) -> tuple[np.ndarray, np.ndarray]:
+def fresh_cycle(
+    g: StitchGraph,
+    ccw: np.ndarray,
+    kids: np.ndarray,
+    dec: np.ndarray,
+    s: int,
+    done: np.ndarray,
+    passes: int,
+    fold: np.ndarray | None = None,
+    holding: int = -1,
+) -> tuple[np.ndarray, np.ndarray]:
     """The cycle a fresh slice opened on stitch s starts from: the course of s (for a short
     row or continuity stitch, the course of its previous wale: those are not rows of the
     bed) as the yarn finds it, i.e. `derive` of that course with every stitch ACTIVE.
@@ -276,8 +304,9 @@ def fresh_cycle(g: StitchGraph, ccw: np.ndarray, kids: np.ndarray, dec: np.ndarr
     if COURSE_KINDS[int(g.course_kind[c])] in ("short_row", "continuity") and p >= 0:
         c = int(g.course[p])
     st = course_cycle(g, c, ccw)
-    return derive(kids, dec, st, np.full(st.shape[0], ACTIVE, np.uint8), done, passes,
-                  fold, g.course, holding)
+    return derive(
+        kids, dec, st, np.full(st.shape[0], ACTIVE, np.uint8), done, passes, fold, g.course, holding
+    )
 
 
 def holding_course(g: StitchGraph, t: Trace, v: int) -> int:
@@ -289,14 +318,30 @@ def holding_course(g: StitchGraph, t: Trace, v: int) -> int:
 
 # ---- verifier ---------------------------------------------------------------------------------
 
+
 def verify(g: StitchGraph, t: Trace, sl: Slices) -> list[str]:
     """Invariants of a slicing of trace `t` over graph `g` (module docstring); empty = valid."""
     problems: list[str] = []
     k = sl.n_slices
     if k == 0:
         return [] if t.n_visits == 0 else ["no slices for a non-empty trace"]
-    fields = ("node", "yarn", "dir", "fresh", "circular", "visit", "visits", "start", "length",
-              "shaping", "limit", "cast_on", "cast_off", "gauge", "derived_from")
+    fields = (
+        "node",
+        "yarn",
+        "dir",
+        "fresh",
+        "circular",
+        "visit",
+        "visits",
+        "start",
+        "length",
+        "shaping",
+        "limit",
+        "cast_on",
+        "cast_off",
+        "gauge",
+        "derived_from",
+    )
     if any(getattr(sl, f).shape != (k,) for f in fields) or sl.state.shape != sl.stitch.shape:
         return ["slice arrays disagree in length"]
     ends = sl.visit + sl.visits
@@ -323,21 +368,26 @@ def verify(g: StitchGraph, t: Trace, sl: Slices) -> list[str]:
     on_back = np.add.reduceat(back.astype(np.int64), sl.start)
     ring = (on_back > 0) & (on_back < sl.length)
     if np.any(ring != sl.circular):
-        problems.append(f"slice {int(np.nonzero(ring != sl.circular)[0][0])} is marked "
-                        "circular but its cycle is not on both beds, or the other way round")
+        problems.append(
+            f"slice {int(np.nonzero(ring != sl.circular)[0][0])} is marked "
+            "circular but its cycle is not on both beds, or the other way round"
+        )
     vs = t.stitch
     n_prev = (g.wale_prev >= 0).sum(1)
     n_next = (g.wale_next >= 0).sum(1)
-    per_visit = (("yarn", t.yarn, sl.yarn), ("direction", t.dir, sl.dir),
-                 ("node", g.node[vs], sl.node), ("gauge", g.course_gauge[g.course[vs]], sl.gauge),
-                 ("cast-on need", n_prev[vs] == 0, sl.cast_on),
-                 ("cast-off need", n_next[vs] == 0, sl.cast_off))
+    per_visit = (
+        ("yarn", t.yarn, sl.yarn),
+        ("direction", t.dir, sl.dir),
+        ("node", g.node[vs], sl.node),
+        ("gauge", g.course_gauge[g.course[vs]], sl.gauge),
+        ("cast-on need", n_prev[vs] == 0, sl.cast_on),
+        ("cast-off need", n_next[vs] == 0, sl.cast_off),
+    )
     for name, arr, per in per_visit:
         bad = arr != per[slice_of_visit]
         if np.any(bad):
             v = int(np.nonzero(bad)[0][0])
-            problems.append(f"visit {v} has another {name} than its slice "
-                            f"{int(slice_of_visit[v])}")
+            problems.append(f"visit {v} has another {name} than its slice {int(slice_of_visit[v])}")
     key_all = slice_of_entry.astype(np.int64) * (n + 1) + sl.stitch
     srt = np.sort(key_all)
     if np.any(srt[1:] == srt[:-1]):
@@ -358,8 +408,7 @@ def verify(g: StitchGraph, t: Trace, sl: Slices) -> list[str]:
             break
     shp = np.bincount(slice_of_visit, weights=stitch_shaping(g)[vs], minlength=k)
     if np.any(shp != sl.shaping):
-        problems.append(f"slice {int(np.nonzero(shp != sl.shaping)[0][0])} miscounts its "
-                        "shaping")
+        problems.append(f"slice {int(np.nonzero(shp != sl.shaping)[0][0])} miscounts its shaping")
     over = (sl.shaping > sl.limit) & (sl.visits > 1)
     if np.any(over):
         problems.append(f"slice {int(np.nonzero(over)[0][0])} shapes more than its limit")
@@ -402,20 +451,22 @@ def _verify_cycles(g: StitchGraph, t: Trace, sl: Slices) -> list[str]:
             base = derive(kids, dec, *sl.cycle(src), done, t.passes, fold, g.course, holding)
             what = f"the cycle derived from slice {src}"
         else:
-            base = fresh_cycle(g, ccw, kids, merging, int(t.stitch[sl.visit[k]]), done,
-                               t.passes, fold, holding)
+            base = fresh_cycle(
+                g, ccw, kids, merging, int(t.stitch[sl.visit[k]]), done, t.passes, fold, holding
+            )
             what = "the fresh cycle of its first stitch"
         problem = _check_cycle(g, *base, st, state)
         if problem:
             return [f"{where} {problem.format(what)}"]
         last_of_node[int(sl.node[k])] = k
         a = int(sl.visit[k])
-        np.add.at(done, t.stitch[a:a + int(sl.visits[k])], 1)
+        np.add.at(done, t.stitch[a : a + int(sl.visits[k])], 1)
     return []
 
 
-def _check_cycle(g: StitchGraph, dst: np.ndarray, dstate: np.ndarray, st: np.ndarray,
-                 state: np.ndarray) -> str | None:
+def _check_cycle(
+    g: StitchGraph, dst: np.ndarray, dstate: np.ndarray, st: np.ndarray, state: np.ndarray
+) -> str | None:
     """None if (st, state) is the base cycle (dst, dstate) with the slice's activations and
     merges applied; else a message with `{}` for the base's name."""
     dst, dstate = dst.copy(), dstate.copy()
@@ -432,8 +483,7 @@ def _check_cycle(g: StitchGraph, dst: np.ndarray, dstate: np.ndarray, st: np.nda
             if np.any(ordered[i] != par):
                 return f"merges stitch {int(m)} whose parents are not in {{}}"
             lo, hi = sorted(int(x) for x in order[i])
-            if dstate[lo] != SUSPENDED or dstate[hi] != SUSPENDED or not keep[lo] or \
-                    not keep[hi]:
+            if dstate[lo] != SUSPENDED or dstate[hi] != SUSPENDED or not keep[lo] or not keep[hi]:
                 return f"merges stitch {int(m)} whose parents are not both suspended"
             dst[lo], dstate[lo], keep[hi] = m, ACTIVE, False
     dst, dstate = dst[keep], dstate[keep]
@@ -445,20 +495,27 @@ def _check_cycle(g: StitchGraph, dst: np.ndarray, dstate: np.ndarray, st: np.nda
     return None
 
 
-
 def to_json(g: StitchGraph, sl: Slices) -> dict[str, Any]:
     """The dump of `knitc --emit slices`: stats first, then one record per slice."""
     out = []
     for k in range(sl.n_slices):
         st, state = sl.cycle(k)
-        out.append({
-            "id": k, "node": g.node_names[int(sl.node[k])], "yarn": int(sl.yarn[k]),
-            "dir": int(sl.dir[k]), "fresh": bool(sl.fresh[k]),
-            "derived_from": int(sl.derived_from[k]),
-            "circular": bool(sl.circular[k]), "gauge": int(sl.gauge[k]),
-            "cast_on": bool(sl.cast_on[k]), "cast_off": bool(sl.cast_off[k]),
-            "visits": [int(sl.visit[k]), int(sl.visits[k])],
-            "shaping": int(sl.shaping[k]), "limit": int(sl.limit[k]),
-            "cycle": [[int(s), STATE_NAMES[int(x)][0]] for s, x in zip(st, state, strict=True)],
-        })
+        out.append(
+            {
+                "id": k,
+                "node": g.node_names[int(sl.node[k])],
+                "yarn": int(sl.yarn[k]),
+                "dir": int(sl.dir[k]),
+                "fresh": bool(sl.fresh[k]),
+                "derived_from": int(sl.derived_from[k]),
+                "circular": bool(sl.circular[k]),
+                "gauge": int(sl.gauge[k]),
+                "cast_on": bool(sl.cast_on[k]),
+                "cast_off": bool(sl.cast_off[k]),
+                "visits": [int(sl.visit[k]), int(sl.visits[k])],
+                "shaping": int(sl.shaping[k]),
+                "limit": int(sl.limit[k]),
+                "cycle": [[int(s), STATE_NAMES[int(x)][0]] for s, x in zip(st, state, strict=True)],
+            }
+        )
     return {"stats": sl.stats(), "slices": out}

@@ -52,8 +52,7 @@ REMOVED = 3
 _WINDOW = 32
 
 
-def slice_trace(g: StitchGraph, t: Trace, *, flat_limit: int = 2,
-                tube_limit: int = 4) -> sl.Slices:
+def slice_trace(g: StitchGraph, t: Trace, *, flat_limit: int = 2, tube_limit: int = 4) -> sl.Slices:
     """Cut trace `t` over graph `g` into bed slices (see the module docstring). The shaping
     limit of a slice is `tube_limit` when its cycle lies on both beds as it opens, else
     `flat_limit`."""
@@ -90,7 +89,7 @@ class _Slicer:
             same[1:] &= arr[1:] == arr[:-1]
         self.same_as_prev = same
         starts = np.flatnonzero(~same)
-        ends = np.r_[starts[1:], t.n_visits][:starts.size]
+        ends = np.r_[starts[1:], t.n_visits][: starts.size]
         self.seg_end = np.repeat(ends, ends - starts)
         self.done = np.zeros(n, np.int32)
         self.pos = np.full(n, -1, np.int64)
@@ -169,8 +168,7 @@ class _Slicer:
         s = int(self.vs[i])
         a, b = (int(x) for x in self.g.wale_prev[s])
         pa, pb = int(self.pos[a]), int(self.pos[b])
-        if pa < 0 or pb < 0 or self.cur_state[pa] != SUSPENDED or \
-                self.cur_state[pb] != SUSPENDED:
+        if pa < 0 or pb < 0 or self.cur_state[pa] != SUSPENDED or self.cur_state[pb] != SUSPENDED:
             return False
         lo, hi = min(pa, pb), max(pa, pb)
         self.cur_st[lo], self.cur_state[lo], self.cur_state[hi] = s, ACTIVE, REMOVED
@@ -187,15 +185,36 @@ class _Slicer:
         holding = sl.holding_course(self.g, self.t, i)
         if src >= 0:
             st, state = self.cycles[src]
-            dst, dstate = sl.derive(self.kids, self.dec, st, state, self.done, self.t.passes,
-                                    self.fold, self.g.course, holding)
+            dst, dstate = sl.derive(
+                self.kids,
+                self.dec,
+                st,
+                state,
+                self.done,
+                self.t.passes,
+                self.fold,
+                self.g.course,
+                holding,
+            )
             self._open(i, dst, dstate, src)
             if self._activate(i) or self._merge(i):
                 return
             self._discard()
-        self._open(i, *sl.fresh_cycle(self.g, self.ccw, self.kids, self.merging,
-                                      int(self.vs[i]), self.done, self.t.passes, self.fold,
-                                      holding), -1)
+        self._open(
+            i,
+            *sl.fresh_cycle(
+                self.g,
+                self.ccw,
+                self.kids,
+                self.merging,
+                int(self.vs[i]),
+                self.done,
+                self.t.passes,
+                self.fold,
+                holding,
+            ),
+            -1,
+        )
         if not (self._activate(i) or self._merge(i)):
             raise AssertionError(f"slicing: visit {i} is not in its own fresh cycle")
 
@@ -242,16 +261,24 @@ class _Slicer:
         src = np.array([r[1] for r in self.rows], np.int64)
 
         def cat(j: int, dt: type) -> np.ndarray:
-            return np.concatenate([c[j] for c in self.cycles]).astype(dt) if k \
-                else np.zeros(0, dt)
+            return np.concatenate([c[j] for c in self.cycles]).astype(dt) if k else np.zeros(0, dt)
 
         return sl.Slices(
-            node=self.node_v[first].astype(np.int32), yarn=self.t.yarn[first].astype(np.int16),
-            dir=self.t.dir[first].astype(np.int8), fresh=src < 0,
-            circular=np.array([r[2] for r in self.rows], bool), visit=first, visits=visits,
-            start=start, length=lengths,
+            node=self.node_v[first].astype(np.int32),
+            yarn=self.t.yarn[first].astype(np.int16),
+            dir=self.t.dir[first].astype(np.int8),
+            fresh=src < 0,
+            circular=np.array([r[2] for r in self.rows], bool),
+            visit=first,
+            visits=visits,
+            start=start,
+            length=lengths,
             shaping=np.array([r[3] for r in self.rows], np.int32),
             limit=np.array([r[4] for r in self.rows], np.int32),
-            cast_on=self.con_v[first].astype(bool), cast_off=self.coff_v[first].astype(bool),
-            gauge=self.gauge_v[first].astype(np.int8), derived_from=src,
-            stitch=cat(0, np.int32), state=cat(1, np.uint8))
+            cast_on=self.con_v[first].astype(bool),
+            cast_off=self.coff_v[first].astype(bool),
+            gauge=self.gauge_v[first].astype(np.int8),
+            derived_from=src,
+            stitch=cat(0, np.int32),
+            state=cat(1, np.uint8),
+        )

@@ -44,26 +44,35 @@ class Trace:
         return int(self.yarn.max()) + 1 if self.n_visits else 0
 
     def stats(self) -> dict[str, Any]:
-        return {"visits": self.n_visits, "yarns": self.n_yarns,
-                "tucks": int(np.count_nonzero(self.flags & TUCK_PREV)),
-                "jumps": int(np.count_nonzero(self.flags & JUMP)),
-                "passes": self.passes, "method": self.method}
+        return {
+            "visits": self.n_visits,
+            "yarns": self.n_yarns,
+            "tucks": int(np.count_nonzero(self.flags & TUCK_PREV)),
+            "jumps": int(np.count_nonzero(self.flags & JUMP)),
+            "passes": self.passes,
+            "method": self.method,
+        }
 
 
 def _neighbours(g: StitchGraph, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Whether visits a[i] -> b[i] move to a course or wale neighbour (or stay)."""
     same = a == b
     course = (g.cnext[a] == b) | (g.cprev[a] == b)
-    wale = (g.wale_next[a, 0] == b) | (g.wale_next[a, 1] == b) | \
-        (g.wale_prev[a, 0] == b) | (g.wale_prev[a, 1] == b)
+    wale = (
+        (g.wale_next[a, 0] == b)
+        | (g.wale_next[a, 1] == b)
+        | (g.wale_prev[a, 0] == b)
+        | (g.wale_prev[a, 1] == b)
+    )
     return same | course | wale
 
 
 def neighbours(g: StitchGraph, a: int, b: int) -> bool:
     """Stitch b is stitch a, or its course or wale neighbour: a step that needs no
     justification (the scalar form of the check `verify` makes over whole arrays)."""
-    return bool(a == b or g.cnext[a] == b or g.cprev[a] == b or b in g.wale_next[a]
-                or b in g.wale_prev[a])
+    return bool(
+        a == b or g.cnext[a] == b or g.cprev[a] == b or b in g.wale_next[a] or b in g.wale_prev[a]
+    )
 
 
 def near(g: StitchGraph, a: int, b: int) -> bool:
@@ -76,8 +85,11 @@ def near(g: StitchGraph, a: int, b: int) -> bool:
     for ch in g.wale_next[a]:
         if ch >= 0 and (g.cnext[ch] == b or g.cprev[ch] == b):
             return True
-    return bool(g.node[a] == g.node[b] and g.side[a] == g.side[b]
-                and abs(int(g.needle[a]) - int(g.needle[b])) <= 1)
+    return bool(
+        g.node[a] == g.node[b]
+        and g.side[a] == g.side[b]
+        and abs(int(g.needle[a]) - int(g.needle[b])) <= 1
+    )
 
 
 def carriage_dirs(g: StitchGraph, stitch: np.ndarray, yarn: np.ndarray) -> np.ndarray:
@@ -104,8 +116,9 @@ def carriage_dirs(g: StitchGraph, stitch: np.ndarray, yarn: np.ndarray) -> np.nd
     prv = np.maximum.accumulate(np.where(step != 0, ar, -1))
     from_next = np.where(nxt <= group_end, step[np.minimum(nxt, n - 1)], 0)
     from_prev = np.where(prv >= group_start, step[np.maximum(prv, 0)], 0)
-    out = np.where(step != 0, step, np.where(from_next != 0, from_next,
-                                             np.where(from_prev != 0, from_prev, 1)))
+    out = np.where(
+        step != 0, step, np.where(from_next != 0, from_next, np.where(from_prev != 0, from_prev, 1))
+    )
     d[order] = out.astype(np.int8)
     return d
 
@@ -142,8 +155,9 @@ def verify(g: StitchGraph, t: Trace) -> list[str]:
         early = first[has] < last[p[has]]
         if np.any(early):
             s = int(np.nonzero(has)[0][early][0])
-            problems.append(f"stitch {s} is knitted before its previous wale {int(p[s])} "
-                            "is finished")
+            problems.append(
+                f"stitch {s} is knitted before its previous wale {int(p[s])} is finished"
+            )
             break
     # consecutive visits of one yarn: neighbours, or a flagged jump
     if t.n_visits > 1:
@@ -156,12 +170,16 @@ def verify(g: StitchGraph, t: Trace) -> list[str]:
         bad = same_yarn & ~ok
         if np.any(bad):
             i = int(np.nonzero(bad)[0][0])
-            problems.append(f"yarn {int(yn[i])} jumps from stitch {int(a[i])} to {int(b[i])} "
-                            "without a justification")
+            problems.append(
+                f"yarn {int(yn[i])} jumps from stitch {int(a[i])} to {int(b[i])} "
+                "without a justification"
+            )
         for i in np.nonzero(same_yarn & jump)[0][:10000]:
             if not near(g, int(a[i]), int(b[i])):
-                problems.append(f"yarn {int(yn[i])} jumps from stitch {int(a[i])} to "
-                                f"{int(b[i])}, which is not a neighbouring needle")
+                problems.append(
+                    f"yarn {int(yn[i])} jumps from stitch {int(a[i])} to "
+                    f"{int(b[i])}, which is not a neighbouring needle"
+                )
                 break
     starts = np.count_nonzero(t.flags & START)
     if starts != t.n_yarns:
@@ -174,13 +192,24 @@ def to_json(g: StitchGraph, t: Trace) -> dict[str, Any]:
     visits = []
     for i in range(t.n_visits):
         f = int(t.flags[i])
-        visits.append({"stitch": int(t.stitch[i]), "yarn": int(t.yarn[i]),
-                       "dir": int(t.dir[i]),
-                       "flags": [name for bit, name in FLAG_NAMES.items() if f & bit]})
+        visits.append(
+            {
+                "stitch": int(t.stitch[i]),
+                "yarn": int(t.yarn[i]),
+                "dir": int(t.dir[i]),
+                "flags": [name for bit, name in FLAG_NAMES.items() if f & bit],
+            }
+        )
     yarns = []
     for y in range(t.n_yarns):
         idx = np.nonzero(t.yarn == y)[0]
-        yarns.append({"yarn": y, "visits": int(idx.size), "first": int(t.stitch[idx[0]]),
-                      "last": int(t.stitch[idx[-1]]),
-                      "nodes": sorted({g.node_names[int(g.node[s])] for s in t.stitch[idx]})})
+        yarns.append(
+            {
+                "yarn": y,
+                "visits": int(idx.size),
+                "first": int(t.stitch[idx[0]]),
+                "last": int(t.stitch[idx[-1]]),
+                "nodes": sorted({g.node_names[int(g.node[s])] for s in t.stitch[idx]}),
+            }
+        )
     return {"stats": t.stats(), "yarns": yarns, "visits": visits}

@@ -27,8 +27,6 @@ from knitc.shaping.stitch_graph import COURSE_KINDS, StitchGraph
 _TURNING = (COURSE_KINDS.index("short_row"), COURSE_KINDS.index("continuity"))
 
 
-
-
 def trace_courses(g: StitchGraph) -> tr.Trace:
     """Single-pass tracing in knitting order (see the module docstring)."""
     n = g.n_stitches
@@ -71,8 +69,9 @@ def trace_courses(g: StitchGraph) -> tr.Trace:
     return tr.Trace(stitch, yarn, dirs, flags, passes=1, method="courses")
 
 
-def trace_rules(g: StitchGraph, passes: int = 2,
-                yarn_of: Callable[[int], int] | None = None) -> tr.Trace:
+def trace_rules(
+    g: StitchGraph, passes: int = 2, yarn_of: Callable[[int], int] | None = None
+) -> tr.Trace:
     """Rule-based tracing (R1–R6) with `passes` visits per stitch (see module docstring)."""
     if passes not in (1, 2):
         raise ValueError("passes must be 1 or 2")
@@ -120,8 +119,10 @@ def trace_rules(g: StitchGraph, passes: int = 2,
     remaining = n * passes
     while remaining > 0:
         if cur < 0:  # R1: start a yarn at the first unfinished stitch of a ready course
-            while next_course < g.n_courses and \
-                    done_in_course[next_course] == g.course_len[next_course]:
+            while (
+                next_course < g.n_courses
+                and done_in_course[next_course] == g.course_len[next_course]
+            ):
                 next_course += 1
             start = -1
             for c in range(next_course, g.n_courses):
@@ -203,5 +204,6 @@ def trace_rules(g: StitchGraph, passes: int = 2,
     yarns = np.asarray(out_yarn, np.int16)
     flags = np.asarray(out_flags, np.uint8)
     tr.start_end_flags(yarns, flags)
-    return tr.Trace(stitch, yarns, tr.carriage_dirs(g, stitch, yarns), flags,
-                    passes=passes, method="rules")
+    return tr.Trace(
+        stitch, yarns, tr.carriage_dirs(g, stitch, yarns), flags, passes=passes, method="rules"
+    )

@@ -74,12 +74,16 @@ def schedule_nodes(skel: Skeleton, diags: Diagnostics) -> list[NodeVisit] | None
                 if orient[name] != flow:
                     ok = False
                     diags.error(
-                        "E520", f"`{name}` would have to be knitted in two directions",
+                        "E520",
+                        f"`{name}` would have to be knitted in two directions",
                         skel.nodes[name].span,
-                        notes=[Note(f"fabric arrives from `{why[name]}`"),
-                               Note(f"and from `{cause}`")],
+                        notes=[
+                            Note(f"fabric arrives from `{why[name]}`"),
+                            Note(f"and from `{cause}`"),
+                        ],
                         hint="a sheet or joint is knitted from one interface to the other; "
-                             "join several pieces with a split")
+                        "join several pieces with a split",
+                    )
                 continue
             orient[name] = flow
             why[name] = cause
@@ -87,13 +91,23 @@ def schedule_nodes(skel: Skeleton, diags: Diagnostics) -> list[NodeVisit] | None
             for path in exits:
                 other = partner.get(ItfId(name, path))
                 if other is not None:
-                    queue.append((other.node, _other_side(skel.nodes[other.node], other.path),
-                                  ItfId(name, path)))
+                    queue.append(
+                        (
+                            other.node,
+                            _other_side(skel.nodes[other.node], other.path),
+                            ItfId(name, path),
+                        )
+                    )
             for path in entries:
                 other = partner.get(ItfId(name, path))
                 if other is not None:
-                    queue.append((other.node, _exiting_at(skel.nodes[other.node], other.path),
-                                  ItfId(name, path)))
+                    queue.append(
+                        (
+                            other.node,
+                            _exiting_at(skel.nodes[other.node], other.path),
+                            ItfId(name, path),
+                        )
+                    )
     if not ok:
         return None
 
@@ -134,10 +148,14 @@ def schedule_nodes(skel: Skeleton, diags: Diagnostics) -> list[NodeVisit] | None
                 if name not in done:
                     visit(name)
     except _Cycle as cyc:
-        diags.error("E521", f"the connections through `{cyc.node}` form a loop; the garment "
-                    "cannot be knitted in one order", skel.nodes[cyc.node].span,
-                    hint="knitted fabric grows in one direction: remove the connection that "
-                         "closes the loop")
+        diags.error(
+            "E521",
+            f"the connections through `{cyc.node}` form a loop; the garment "
+            "cannot be knitted in one order",
+            skel.nodes[cyc.node].span,
+            hint="knitted fabric grows in one direction: remove the connection that "
+            "closes the loop",
+        )
         return None
     return order
 

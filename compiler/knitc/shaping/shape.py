@@ -37,7 +37,7 @@ from knitc.shaping.shapers import MappingError, wales_between
 from knitc.shaping.shapers import shape as shaper_map
 
 FRONT, BACK = 0, 1
-GOLDEN = (5 ** 0.5 - 1) / 2
+GOLDEN = (5**0.5 - 1) / 2
 """Step of `uniform`'s phase between changes: successive phases fill [0, 1) evenly."""
 PREDEFINED = ("uniform", "center", "left", "right", "sides")
 
@@ -95,8 +95,7 @@ class _Acc:
     wale_dst: list[np.ndarray] = field(default_factory=list)
     n: int = 0
 
-    def course(self, node: int, side, needle, circular: bool, kind: str,
-               gauge: int) -> Course:
+    def course(self, node: int, side, needle, circular: bool, kind: str, gauge: int) -> Course:
         side = np.asarray(side, dtype=np.int8)
         needle = np.asarray(needle, dtype=np.int32)
         count = int(side.shape[0])
@@ -144,16 +143,27 @@ class _Acc:
             _fill_slots(wale_prev, d[order], s[order])
         empty8, empty32 = np.zeros(0, np.int8), np.zeros(0, np.int32)
         return sg.StitchGraph(
-            node_names=self.node_names, spans=self.spans, node=node_of_course[course],
-            course=course, side=np.concatenate(self.sides) if self.sides else empty8,
+            node_names=self.node_names,
+            spans=self.spans,
+            node=node_of_course[course],
+            course=course,
+            side=np.concatenate(self.sides) if self.sides else empty8,
             needle=np.concatenate(self.needles) if self.needles else empty32,
-            cprev=cprev.astype(np.int32), cnext=cnext.astype(np.int32),
-            wale_prev=wale_prev, wale_next=wale_next, instr=np.zeros(n, np.uint8),
+            cprev=cprev.astype(np.int32),
+            cnext=cnext.astype(np.int32),
+            wale_prev=wale_prev,
+            wale_next=wale_next,
+            instr=np.zeros(n, np.uint8),
             action=np.full(n, -1, np.int16),
-            span=node_of_course[course].copy(), course_start=start, course_len=length,
-            course_node=node_of_course, course_circular=circular,
-            course_kind=table[:, 4].astype(np.int8), course_gauge=table[:, 5].astype(np.int8),
-            course_names=dict(self.names))
+            span=node_of_course[course].copy(),
+            course_start=start,
+            course_len=length,
+            course_node=node_of_course,
+            course_circular=circular,
+            course_kind=table[:, 4].astype(np.int8),
+            course_gauge=table[:, 5].astype(np.int8),
+            course_names=dict(self.names),
+        )
 
 
 def _fill_slots(pair: np.ndarray, key: np.ndarray, val: np.ndarray) -> None:
@@ -169,13 +179,16 @@ def _fill_slots(pair: np.ndarray, key: np.ndarray, val: np.ndarray) -> None:
 
 # ---- ring geometry -----------------------------------------------------------------------
 
+
 def ring(width: int, tubular: bool, offset: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """(side, needle) of ring positions 0.. of a course of `width` stitches per bed."""
     k = np.arange(width, dtype=np.int32)
     if not tubular:
         return np.zeros(width, np.int8), k + offset
-    return (np.concatenate([np.zeros(width, np.int8), np.ones(width, np.int8)]),
-            np.concatenate([k, k[::-1]]) + offset)
+    return (
+        np.concatenate([np.zeros(width, np.int8), np.ones(width, np.int8)]),
+        np.concatenate([k, k[::-1]]) + offset,
+    )
 
 
 def _ring_index(side: np.ndarray, needle: np.ndarray, width: int, tubular: bool) -> np.ndarray:
@@ -195,6 +208,7 @@ def _grid_wales(acc: _Acc, a: Course, b: Course) -> None:
 
 
 # ---- the pass --------------------------------------------------------------------------------
+
 
 @dataclass
 class _State:
@@ -265,6 +279,7 @@ def _span_of(state: _State, node: PrimNode, course: Course) -> int:
 
 # -- sheets and tubes
 
+
 def _widths(node: PrimNode, count: int, reverse: bool) -> list[int]:
     prof = node.props["width"]
     assert isinstance(prof, Profile)
@@ -300,9 +315,11 @@ def _sheet(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     # (the original's 2:1 rule).
     partner_out = state.partner.get(ItfId(node.name, exit_))
     close_out = itf_out.state == "closed" or (
-        partner_out is not None and tubular
+        partner_out is not None
+        and tubular
         and binding(skel, ItfId(node.name, exit_), partner_out) == "close"
-        and cast(int, itf_out.size) > cast(int, skel.interfaces[partner_out].size))
+        and cast(int, itf_out.size) > cast(int, skel.interfaces[partner_out].size)
+    )
     if close_out and tubular and length > 1:
         widths[-1] = widths[-2]
     max_w = max(widths)
@@ -310,15 +327,28 @@ def _sheet(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     prev = _incoming(state, node, entry)
     # a flat piece continues on the bed of the flat course it grows from (an unfolded
     # split's branch may lie on the back bed)
-    flat_side = BACK if prev is not None and not tubular and not prev.circular \
-        and prev.width and bool((prev.side == BACK).all()) else FRONT
+    flat_side = (
+        BACK
+        if prev is not None
+        and not tubular
+        and not prev.circular
+        and prev.width
+        and bool((prev.side == BACK).all())
+        else FRONT
+    )
     direction = 1
     courses: list[Course] = []
     for c, w in enumerate(widths):
         off = _offset(alignment, w, max_w)
         closes_here = (c == 0 and itf_in.state == "closed") or (c == length - 1 and close_out)
-        if c == 0 and prev is not None and prev.circular == tubular and not closes_here and \
-                prev.per_bed == w and state.gauge(node) == _gauge_of(state, prev):
+        if (
+            c == 0
+            and prev is not None
+            and prev.circular == tubular
+            and not closes_here
+            and prev.per_bed == w
+            and state.gauge(node) == _gauge_of(state, prev)
+        ):
             cur = prev  # the connection's course is shared with the producer
         else:
             side, needle = ring(w, tubular, off)
@@ -337,8 +367,12 @@ def _sheet(state: _State, node: PrimNode, visit: NodeVisit) -> None:
                 kind = "interface" if c in (0, length - 1) else "regular"
                 cur = acc.course(idx, side, needle, tubular, kind, gauge)
             if c == 0:
-                if prev is not None and cur.collapsed and prev.circular \
-                        and prev.per_bed == cur.width:
+                if (
+                    prev is not None
+                    and cur.collapsed
+                    and prev.circular
+                    and prev.per_bed == cur.width
+                ):
                     _link(state, node, prev, cur)
                 elif prev is not None:
                     _spread(acc, prev, cur)
@@ -391,8 +425,7 @@ def _link(state: _State, node: PrimNode, a: Course, b: Course) -> None:
     acc = state.acc
     bed: int | None
     key: tuple[str, int] | tuple[str, int, int, int]
-    if (b.collapsed and a.circular) or \
-            (a.collapsed and b.circular):
+    if (b.collapsed and a.circular) or (a.collapsed and b.circular):
         full, flat = (a, b) if b.collapsed else (b, a)
         for bed in (FRONT, BACK):
             half = full.half(bed)
@@ -408,19 +441,23 @@ def _link(state: _State, node: PrimNode, a: Course, b: Course) -> None:
         _grid_wales(acc, a, b)
         return
     program = None if shaper in PREDEFINED else state.skel.shapers.get(str(shaper))
-    for bed in ((FRONT, BACK) if a.circular or b.circular else (None,)):
+    for bed in (FRONT, BACK) if a.circular or b.circular else (None,):
         # two flat courses are linked whole, whichever bed each lies on
-        ha, hb = (a.half(bed), b.half(bed)) if bed is not None else \
-            (a.in_bed_order(), b.in_bed_order())
+        ha, hb = (
+            (a.half(bed), b.half(bed)) if bed is not None else (a.in_bed_order(), b.in_bed_order())
+        )
         m, n = ha.size, hb.size
         if m == 0 or n == 0:
             continue
         small, large = min(m, n), max(m, n)
         if large > 2 * small:
             state.diags.error(
-                "E530", f"`{node.name}` changes from {m} to {n} stitches per bed between two "
-                "courses; a course can at most double or halve", node.prop_spans.get(
-                    "width", node.span), hint="lengthen the node or soften its width profile")
+                "E530",
+                f"`{node.name}` changes from {m} to {n} stitches per bed between two "
+                "courses; a course can at most double or halve",
+                node.prop_spans.get("width", node.span),
+                hint="lengthen the node or soften its width profile",
+            )
             state.failed = True
             return
         # the odd stitch of a change goes to alternating edges (both beds alike: a tube's
@@ -439,19 +476,27 @@ def _link(state: _State, node: PrimNode, a: Course, b: Course) -> None:
             else:
                 key = (str(shaper), small, large, turn)
                 if key not in state.user_maps:  # courses repeat: run each (M, N) once
-                    state.user_maps[key] = shaper_map(program, small, large, turn=turn,
-                                                      param=state.param)
+                    state.user_maps[key] = shaper_map(
+                        program, small, large, turn=turn, param=state.param
+                    )
                 src = state.user_maps[key]
         except EvalError as err:
-            state.diags.error(err.code, err.message, err.span, hint=err.hint,
-                              notes=[Note(f"used by `{node.name}`",
-                                          node.prop_spans.get("shaper", node.span))])
+            state.diags.error(
+                err.code,
+                err.message,
+                err.span,
+                hint=err.hint,
+                notes=[Note(f"used by `{node.name}`", node.prop_spans.get("shaper", node.span))],
+            )
             state.failed = True
             return
         except (MappingError, ValueError) as err:
-            state.diags.error("E531", f"shaper `{shaper}` failed for {small} → {large} "
-                              f"stitches: {getattr(err, 'message', err)}",
-                              node.prop_spans.get("shaper", node.span))
+            state.diags.error(
+                "E531",
+                f"shaper `{shaper}` failed for {small} → {large} "
+                f"stitches: {getattr(err, 'message', err)}",
+                node.prop_spans.get("shaper", node.span),
+            )
             state.failed = True
             return
         prev, nxt = wales_between(m, n, src)
@@ -493,6 +538,7 @@ def _spread(acc: _Acc, a: Course, b: Course) -> None:
 
 # -- joints (short rows)
 
+
 def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     acc, skel = state.acc, state.skel
     idx = acc.node_names.index(node.name)
@@ -503,10 +549,13 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     itf = skel.interfaces[ItfId(node.name, entry)]
     if bottom is not None:  # the course the joint continues decides its shape
         if not bottom.circular and np.unique(bottom.side).size > 1:
-            state.diags.error("E533", f"joint `{node.name}` cannot continue a course closed "
-                              "across both beds (a zigzag closing)", node.span,
-                              hint="put at least one course of a tube between the closing "
-                                   "and the short rows")
+            state.diags.error(
+                "E533",
+                f"joint `{node.name}` cannot continue a course closed "
+                "across both beds (a zigzag closing)",
+                node.span,
+                hint="put at least one course of a tube between the closing and the short rows",
+            )
             state.failed = True
             return
         tubular = bottom.circular
@@ -597,10 +646,13 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
                 break
     if best is None or (y in inside and not lead):
         state.diags.error(
-            "E532", f"the short rows of joint `{node.name}` cannot start where the yarn "
-            "arrives from the course below", node.prop_spans.get("layout", node.span),
+            "E532",
+            f"the short rows of joint `{node.name}` cannot start where the yarn "
+            "arrives from the course below",
+            node.prop_spans.get("layout", node.span),
             hint="short rows must be narrower than the course and away from where the "
-                 "previous course ends: change `layout` or `width`")
+            "previous course ends: change `layout` or `width`",
+        )
         state.failed = True
         return
     direction, walk, reached = best
@@ -661,16 +713,23 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
         built.append(course_at(cont, "continuity"))
     arr = np.asarray(top_order)
     if tubular:
-        top = acc.course(idx, (arr >= per_bed).astype(np.int8),
-                         np.where(arr < per_bed, arr, 2 * per_bed - 1 - arr), True,
-                         "interface", gauge)
+        top = acc.course(
+            idx,
+            (arr >= per_bed).astype(np.int8),
+            np.where(arr < per_bed, arr, 2 * per_bed - 1 - arr),
+            True,
+            "interface",
+            gauge,
+        )
     else:
         top = acc.course(idx, np.zeros(G, np.int8), arr, False, "interface", gauge)
     built.append(top)
     # grid wales: each column links its stitches in knitting order
     all_ids = np.concatenate([b.ids for b in built])
-    all_cols = np.concatenate([_cols(bottom, per_bed, tubular)] + [
-        _ring_index(b.side, b.needle, per_bed, tubular) for b in built[1:]])
+    all_cols = np.concatenate(
+        [_cols(bottom, per_bed, tubular)]
+        + [_ring_index(b.side, b.needle, per_bed, tubular) for b in built[1:]]
+    )
     order = np.lexsort((all_ids, all_cols))
     ids_sorted, cols_sorted = all_ids[order], all_cols[order]
     same = cols_sorted[1:] == cols_sorted[:-1]
@@ -682,15 +741,19 @@ def _joint(state: _State, node: PrimNode, visit: NodeVisit) -> None:
 
 # -- splits and merges
 
-def _branch_layout(state: _State, node: PrimNode, base_per_bed: int, tubular: bool
-                   ) -> list[tuple[int, int, bool, bool]]:
+
+def _branch_layout(
+    state: _State, node: PrimNode, base_per_bed: int, tubular: bool
+) -> list[tuple[int, int, bool, bool]]:
     """(offset on the base ring, per-bed width, tubular, laid around the ring) of every
     branch: a flat branch of an unfolded split lies along the base ring from its offset."""
     skel = state.skel
     degree = int(cast(int, node.props["degree"]))
     itfs = [skel.interfaces[ItfId(node.name, f"branches/{i}")] for i in range(degree)]
-    tubes = [(itf.sides or (2 if tubular and node.props["folded"] else 1)) == 2 and tubular
-             for itf in itfs]  # on a flat base every branch lies flat
+    tubes = [
+        (itf.sides or (2 if tubular and node.props["folded"] else 1)) == 2 and tubular
+        for itf in itfs
+    ]  # on a flat base every branch lies flat
     # flat branches of a tubular base lie around its ring, folded or not; an unfolded split
     # opens the tube, so all its branches are flat (a tube joined to one closes it again)
     folded = bool(node.props["folded"]) and (not tubular or all(tubes))
@@ -712,15 +775,16 @@ def _branch_layout(state: _State, node: PrimNode, base_per_bed: int, tubular: bo
         else:
             gaps = degree - 1 if folded else degree
             margin = (span - total) / gaps if gaps else 0
-            positions = [sum(sizes[k] + margin for k in range(i)) / span
-                         for i in range(degree)]
+            positions = [sum(sizes[k] + margin for k in range(i)) / span for i in range(degree)]
         positions = [min(max(p, 0.0), 1.0) if degree > 1 else 0.0 for p in positions]
-    return [(round_half_up(positions[i] * span), sizes[i], tubes[i], unfolded)
-            for i in range(degree)]
+    return [
+        (round_half_up(positions[i] * span), sizes[i], tubes[i], unfolded) for i in range(degree)
+    ]
 
 
-def _branch_positions(off: int, width: int, tubular: bool, around: bool, base_per_bed: int
-                      ) -> tuple[np.ndarray, np.ndarray]:
+def _branch_positions(
+    off: int, width: int, tubular: bool, around: bool, base_per_bed: int
+) -> tuple[np.ndarray, np.ndarray]:
     """(side, needle) of a branch's stitches in yarn order, in the base's frame. A flat
     branch of an unfolded split follows the base ring from its offset: front left to right,
     then round the fold onto the back right to left (a branch in the back half lies on the
@@ -797,8 +861,7 @@ def _split(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     end_id = int(knitted_last.ids[-1]) if knitted_last is not None else int(last.ids[-1])
     hit = np.nonzero(last.ids == end_id)[0]
     at = int(hit[0]) if hit.size else last.width - 1  # a spread branch: its own course
-    y = int(_ring_index(last.side[at:at + 1], last.needle[at:at + 1], base_per_bed,
-                        tubular)[0])
+    y = int(_ring_index(last.side[at : at + 1], last.needle[at : at + 1], base_per_bed, tubular)[0])
     G = base_per_bed * (2 if tubular else 1)
     if tubular:
         cont_cols = [(y + k) % G for k in range(1, (0 - y) % G)]
@@ -808,16 +871,16 @@ def _split(state: _State, node: PrimNode, visit: NodeVisit) -> None:
     if cont_cols:
         arr = np.asarray(cont_cols)
         side = (arr >= base_per_bed).astype(np.int8) if tubular else np.zeros(arr.size, np.int8)
-        needle = np.where(arr < base_per_bed, arr, 2 * base_per_bed - 1 - arr) if tubular \
-            else arr
+        needle = np.where(arr < base_per_bed, arr, 2 * base_per_bed - 1 - arr) if tubular else arr
         courses.append(acc.course(idx, side, needle, False, "continuity", gauge))
     side, needle = ring(base_per_bed, tubular)
     base = acc.course(idx, side, needle, tubular, "interface", gauge)
     courses.append(base)
     # wales by position, in knitting order, from branches via continuity to the base
     all_ids = np.concatenate([c.ids for c in courses])
-    all_pos = np.concatenate([_ring_index(c.side, c.needle, base_per_bed, tubular)
-                              for c in courses])
+    all_pos = np.concatenate(
+        [_ring_index(c.side, c.needle, base_per_bed, tubular) for c in courses]
+    )
     order = np.lexsort((all_ids, all_pos))
     ids_sorted, pos_sorted = all_ids[order], all_pos[order]
     same = pos_sorted[1:] == pos_sorted[:-1]

@@ -78,6 +78,7 @@ def _check_domain(M: int, N: int) -> None:
 
 # ---- validation -------------------------------------------------------------------------------
 
+
 def mapping_from_pairs(M: int, N: int, small, large) -> np.ndarray:
     """Validate wales (smaller-course stitch `small[k]`, larger-course stitch `large[k]`)
     and return the `src` array; raise `MappingError` naming the first offending wale."""
@@ -86,24 +87,32 @@ def mapping_from_pairs(M: int, N: int, small, large) -> np.ndarray:
     bad = np.flatnonzero((small < 0) | (small >= M))
     if bad.size:
         k = int(bad[0])
-        raise MappingError(f"stitch {small[k]} is outside the smaller course "
-                           f"(M = {M}: stitches 0 to {M - 1})", k)
+        raise MappingError(
+            f"stitch {small[k]} is outside the smaller course (M = {M}: stitches 0 to {M - 1})", k
+        )
     bad = np.flatnonzero((large < 0) | (large >= N))
     if bad.size:
         k = int(bad[0])
-        raise MappingError(f"stitch {large[k]} is outside the larger course "
-                           f"(N = {N}: stitches 0 to {N - 1})", k)
+        raise MappingError(
+            f"stitch {large[k]} is outside the larger course (N = {N}: stitches 0 to {N - 1})", k
+        )
     # The second wale (in order) onto an already mapped larger-course stitch is the culprit.
     _, first = np.unique(large, return_index=True)
     dup = np.setdiff1d(np.arange(large.size), first)
     if dup.size:
         k = int(dup[0])
-        raise MappingError(f"stitch {large[k]} of the larger course is mapped twice", k,
-                           "each stitch of the larger course continues exactly one stitch")
+        raise MappingError(
+            f"stitch {large[k]} of the larger course is mapped twice",
+            k,
+            "each stitch of the larger course continues exactly one stitch",
+        )
     if large.size < N:
         j = int(np.setdiff1d(np.arange(N), large)[0])
-        raise MappingError(f"stitch {j} of the larger course is not mapped", None,
-                           f"every stitch 0 to {N - 1} of the larger course needs a source")
+        raise MappingError(
+            f"stitch {j} of the larger course is not mapped",
+            None,
+            f"every stitch 0 to {N - 1} of the larger course needs a source",
+        )
     pair_of = np.empty(N, dtype=np.int64)
     pair_of[large] = np.arange(N)
     src = small[pair_of]
@@ -111,23 +120,32 @@ def mapping_from_pairs(M: int, N: int, small, large) -> np.ndarray:
     if M and counts.max() > 2:
         i = int(np.argmax(counts > 2))
         k = int(np.flatnonzero(small == i)[2])
-        raise MappingError(f"stitch {i} of the smaller course continues into more than 2 "
-                           "stitches", k, "a stitch can split into at most two (one increase)")
+        raise MappingError(
+            f"stitch {i} of the smaller course continues into more than 2 stitches",
+            k,
+            "a stitch can split into at most two (one increase)",
+        )
     if M and counts.min() == 0:
         i = int(np.argmin(counts))
-        raise MappingError(f"stitch {i} of the smaller course maps nowhere, so its loop "
-                           "would be dropped", None, "map every stitch 0 to M - 1")
+        raise MappingError(
+            f"stitch {i} of the smaller course maps nowhere, so its loop would be dropped",
+            None,
+            "map every stitch 0 to M - 1",
+        )
     down = np.flatnonzero(np.diff(src) < 0)
     if down.size:
         j = int(down[0]) + 1
         k = int(max(pair_of[j - 1], pair_of[j]))
-        raise MappingError(f"wales cross: stitch {src[j - 1]} continues into {j - 1} but "
-                           f"stitch {src[j]} into {j}", k,
-                           "a shaper keeps the order of stitches: if i < i' then j <= j'")
+        raise MappingError(
+            f"wales cross: stitch {src[j - 1]} continues into {j - 1} but stitch {src[j]} into {j}",
+            k,
+            "a shaper keeps the order of stitches: if i < i' then j <= j'",
+        )
     return src
 
 
 # ---- the predefined shapers (seed-systems §1.6) -----------------------------------------------
+
 
 def _round_half_up(x: np.ndarray) -> np.ndarray:
     """`evaluate.round_half_up` (JavaScript's Math.round) on an array."""
@@ -186,12 +204,17 @@ def _sides(M: int, N: int, turn: int = 0):
 
 
 _FORMULAS: dict[str, Callable[[int, int], tuple[np.ndarray, np.ndarray]]] = {
-    "uniform": _uniform, "center": _center, "left": _left, "right": _right, "sides": _sides,
+    "uniform": _uniform,
+    "center": _center,
+    "left": _left,
+    "right": _right,
+    "sides": _sides,
 }
 
 
-def predefined_wales(name: str, M: int, N: int, turn: int = 0, phase: float = 0.0
-                     ) -> tuple[np.ndarray, np.ndarray]:
+def predefined_wales(
+    name: str, M: int, N: int, turn: int = 0, phase: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
     """The (smaller, larger) wales of a predefined shaper, unvalidated, as the original
     emitted them: each source once in order, then the second wale of each split. `sides`
     reads `turn`, `uniform` `phase` (the module docstring); the others neither."""
@@ -214,6 +237,7 @@ def _predefined(name: str, M: int, N: int, turn: int, phase: float) -> np.ndarra
 
 # ---- user shaper programs ---------------------------------------------------------------------
 
+
 class _Collector:
     """Turns the values of executed `->` statements into wales."""
 
@@ -229,8 +253,12 @@ class _Collector:
         self.spans.append(span)
         n = len(self.spans) - 1
         if isinstance(src, tuple) and isinstance(dst, tuple):
-            raise EvalError("E318", "a mapping either splits (`i -> (j1, j2)`) or merges "
-                            "(`(i1, i2) -> j`), not both at once", span)
+            raise EvalError(
+                "E318",
+                "a mapping either splits (`i -> (j1, j2)`) or merges "
+                "(`(i1, i2) -> j`), not both at once",
+                span,
+            )
         if isinstance(dst, tuple):
             i, (j1, j2) = _index(src, span), _pair(dst, span, "split")
             self._direction("split", span)
@@ -248,12 +276,15 @@ class _Collector:
         elif self.direction != kind:
             assert self.first_span is not None
             first = "splits" if self.direction == "split" else "merges"
-            raise EvalError("E318", f"this shaper already {first} (line {self.first_span.line}); "
-                            "a shaper maps either from the smaller course (`i -> j`, "
-                            "`i -> (j1, j2)`) or from the larger (`a -> i`, `(a1, a2) -> i`), "
-                            "not both", span,
-                            "write increases only: a decrease is the same mapping read "
-                            "backwards")
+            raise EvalError(
+                "E318",
+                f"this shaper already {first} (line {self.first_span.line}); "
+                "a shaper maps either from the smaller course (`i -> j`, "
+                "`i -> (j1, j2)`) or from the larger (`a -> i`, `(a1, a2) -> i`), "
+                "not both",
+                span,
+                "write increases only: a decrease is the same mapping read backwards",
+            )
 
     def pairs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if self.direction == "merge":
@@ -269,8 +300,12 @@ def _index(v: Value, span: Span) -> int:
     i = whole(v)
     if i is None:
         what = show(v) if isinstance(v, int | float) and not isinstance(v, bool) else type_name(v)
-        raise EvalError("E318", f"a mapping needs stitch indices (whole numbers), got {what}",
-                        span, "round it with `floor`, `ceil` or `round`")
+        raise EvalError(
+            "E318",
+            f"a mapping needs stitch indices (whole numbers), got {what}",
+            span,
+            "round it with `floor`, `ceil` or `round`",
+        )
     return i
 
 
@@ -279,15 +314,25 @@ def _pair(v: tuple, span: Span, kind: str) -> tuple[int, int]:
         raise EvalError("E318", f"a {kind} involves exactly two stitches, got {len(v)}", span)
     a, b = _index(v[0], span), _index(v[1], span)
     if b != a + 1:
-        raise EvalError("E318", f"a {kind} involves two neighbouring stitches, got "
-                        f"({a}, {b})", span, f"write ({a}, {a + 1})")
+        raise EvalError(
+            "E318",
+            f"a {kind} involves two neighbouring stitches, got ({a}, {b})",
+            span,
+            f"write ({a}, {a + 1})",
+        )
     return a, b
 
 
-def run_user_shaper(defn: ast.ShaperDef, M: int, N: int, *,
-                    param: Callable[[str, Span], Value] | None = None,
-                    prop: Callable[[str | None, str, Span], Value] | None = None,
-                    budget: int = DEFAULT_BUDGET, turn: int = 0) -> np.ndarray:
+def run_user_shaper(
+    defn: ast.ShaperDef,
+    M: int,
+    N: int,
+    *,
+    param: Callable[[str, Span], Value] | None = None,
+    prop: Callable[[str | None, str, Span], Value] | None = None,
+    budget: int = DEFAULT_BUDGET,
+    turn: int = 0,
+) -> np.ndarray:
     """Run a user shaper for M -> N (M <= N <= 2M) and return its validated `src` array.
 
     `param`/`prop` resolve `#name` and `@prop` in the program (the evaluator's hooks);
@@ -297,13 +342,20 @@ def run_user_shaper(defn: ast.ShaperDef, M: int, N: int, *,
     _check_domain(M, N)
     name = defn.name.name
     if len(defn.params) < 2 or any(p.default is None for p in defn.params[2:]):
-        raise EvalError("E310", f"shaper `{name}` must take (M, N) and give defaults to any "
-                        "further parameters", defn.name.span)
+        raise EvalError(
+            "E310",
+            f"shaper `{name}` must take (M, N) and give defaults to any further parameters",
+            defn.name.span,
+        )
     collect = _Collector(M, N)
-    interp = Interpreter(words=(), on_map=collect, param=param, prop=prop, budget=budget,
-                         what=f"shaper `{name}`")
-    bindings: dict[str, Value] = {"turn": turn, defn.params[0].name.name: M,
-                                  defn.params[1].name.name: N}
+    interp = Interpreter(
+        words=(), on_map=collect, param=param, prop=prop, budget=budget, what=f"shaper `{name}`"
+    )
+    bindings: dict[str, Value] = {
+        "turn": turn,
+        defn.params[0].name.name: M,
+        defn.params[1].name.name: N,
+    }
     for p in defn.params[2:]:
         assert p.default is not None
         bindings[p.name.name] = interp.evaluate(p.default, bindings)
@@ -313,14 +365,17 @@ def run_user_shaper(defn: ast.ShaperDef, M: int, N: int, *,
         return mapping_from_pairs(M, N, small, large)
     except MappingError as err:
         span = defn.name.span if err.pair is None else collect.spans[int(stmt[err.pair])]
-        raise EvalError("E319", f"shaper `{name}` for M = {M}, N = {N}: {err.message}", span,
-                        err.hint) from None
+        raise EvalError(
+            "E319", f"shaper `{name}` for M = {M}, N = {N}: {err.message}", span, err.hint
+        ) from None
 
 
 # ---- the entry point --------------------------------------------------------------------------
 
-def shape(shaper: str | ast.ShaperDef, M: int, N: int, *, turn: int = 0,
-          phase: float = 0.0, **hooks) -> np.ndarray:
+
+def shape(
+    shaper: str | ast.ShaperDef, M: int, N: int, *, turn: int = 0, phase: float = 0.0, **hooks
+) -> np.ndarray:
     """The `src` array mapping M stitches onto N (M <= N <= 2M) for a predefined shaper name
     or a user `ShaperDef` (`hooks`: `param`, `prop`, `budget` of `run_user_shaper`); `turn`
     and `phase` are the shape pass's alternation (see the module docstring).
@@ -330,13 +385,16 @@ def shape(shaper: str | ast.ShaperDef, M: int, N: int, *, turn: int = 0,
     if isinstance(shaper, ast.ShaperDef):
         return run_user_shaper(shaper, M, N, turn=turn, **hooks)
     if shaper == "none":
-        raise ValueError("shaper `none` has no mapping: its wales join stitches on the same "
-                         "needle (grid wales), which the shape pass builds from the layout")
+        raise ValueError(
+            "shaper `none` has no mapping: its wales join stitches on the same "
+            "needle (grid wales), which the shape pass builds from the layout"
+        )
     if shaper not in _FORMULAS:
         raise ValueError(f"`{shaper}` is not a predefined shaper; pass its ShaperDef")
     _check_domain(M, N)
-    return _predefined(shaper, M, N, turn if shaper == "sides" else 0,
-                       phase if shaper == "uniform" else 0.0)
+    return _predefined(
+        shaper, M, N, turn if shaper == "sides" else 0, phase if shaper == "uniform" else 0.0
+    )
 
 
 def wales_between(prev_len: int, next_len: int, src: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -24,8 +24,25 @@ import numpy as np
 
 from knitc.source import Span
 
-INSTRUCTIONS = ("K", "P", "T", "M", "FR1", "FR2", "FL1", "FL2", "BR1", "BR2", "BL1", "BL2",
-                "XR+", "XR-", "XL+", "XL-", "S")
+INSTRUCTIONS = (
+    "K",
+    "P",
+    "T",
+    "M",
+    "FR1",
+    "FR2",
+    "FL1",
+    "FL2",
+    "BR1",
+    "BR2",
+    "BL1",
+    "BL2",
+    "XR+",
+    "XR-",
+    "XL+",
+    "XL-",
+    "S",
+)
 """The 17 pattern instructions of thesis ch. 4.2, in the order of the original alphabet."""
 
 COURSE_KINDS = ("regular", "short_row", "continuity", "interface")
@@ -100,6 +117,7 @@ def empty_pair(n: int) -> np.ndarray:
 
 # ---- verifier ---------------------------------------------------------------------------------
 
+
 def verify(g: StitchGraph) -> list[str]:
     """Structural invariants; returns human-readable violations (empty = valid).
 
@@ -111,8 +129,9 @@ def verify(g: StitchGraph) -> list[str]:
 
     # Courses tile the id space contiguously and agree with the per-stitch course array.
     ends = g.course_start + g.course_len
-    if g.n_courses and (g.course_start[0] != 0 or ends[-1] != n
-                        or np.any(g.course_start[1:] != ends[:-1])):
+    if g.n_courses and (
+        g.course_start[0] != 0 or ends[-1] != n or np.any(g.course_start[1:] != ends[:-1])
+    ):
         problems.append("courses do not tile the stitch ids contiguously")
     expected = np.repeat(np.arange(g.n_courses, dtype=np.int32), g.course_len)
     if expected.shape != g.course.shape or np.any(expected != g.course):
@@ -132,8 +151,10 @@ def verify(g: StitchGraph) -> list[str]:
             problems.append(f"{name} links stitches of different courses")
 
     # Wales: mutual, forward in knitting time, at most two each way, 1->2 and 2->1 only.
-    for name, fwd, back in (("wale_next", g.wale_next, g.wale_prev),
-                            ("wale_prev", g.wale_prev, g.wale_next)):
+    for name, fwd, back in (
+        ("wale_next", g.wale_next, g.wale_prev),
+        ("wale_prev", g.wale_prev, g.wale_next),
+    ):
         src, slot = np.nonzero(fwd >= 0)
         dst = fwd[src, slot]
         if np.any(dst >= n):
@@ -160,33 +181,48 @@ def verify(g: StitchGraph) -> list[str]:
     return problems
 
 
-
 # ---- stable JSON --------------------------------------------------------------------------
+
 
 def to_json(g: StitchGraph, *, stitches: bool = True) -> dict[str, Any]:
     """The dump of `knitc --emit stitch-graph`: stats first, then courses and stitches."""
     out: dict[str, Any] = {"stats": g.stats(), "nodes": list(g.node_names)}
     out["courses"] = [
-        {"id": c, "node": g.node_names[int(g.course_node[c])],
-         "start": int(g.course_start[c]), "len": int(g.course_len[c]),
-         "circular": bool(g.course_circular[c]),
-         "kind": COURSE_KINDS[int(g.course_kind[c])], "gauge": int(g.course_gauge[c]),
-         **({"names": list(g.course_names[c])} if c in g.course_names else {})}
+        {
+            "id": c,
+            "node": g.node_names[int(g.course_node[c])],
+            "start": int(g.course_start[c]),
+            "len": int(g.course_len[c]),
+            "circular": bool(g.course_circular[c]),
+            "kind": COURSE_KINDS[int(g.course_kind[c])],
+            "gauge": int(g.course_gauge[c]),
+            **({"names": list(g.course_names[c])} if c in g.course_names else {}),
+        }
         for c in range(g.n_courses)
     ]
     if stitches:
+
         def pairs(a: np.ndarray) -> list[list[int]]:
             return [[int(x) for x in row if x >= 0] for row in a]
+
         wn, wp = pairs(g.wale_next), pairs(g.wale_prev)
         assert g.origin is not None  # filled in by __post_init__
         out["stitches"] = [
-            {"id": i, "course": int(g.course[i]),
-             "pos": i - int(g.course_start[int(g.course[i])]), "side": int(g.side[i]),
-             "needle": int(g.needle[i]), "prev": int(g.cprev[i]), "next": int(g.cnext[i]),
-             "wale_prev": wp[i], "wale_next": wn[i], "instr": INSTRUCTIONS[int(g.instr[i])],
-             "action": int(g.action[i]),
-             "span": g.spans[int(g.span[i])].to_json(),
-             **({"origin": g.spans[int(g.origin[i])].to_json()} if g.origin[i] >= 0 else {})}
+            {
+                "id": i,
+                "course": int(g.course[i]),
+                "pos": i - int(g.course_start[int(g.course[i])]),
+                "side": int(g.side[i]),
+                "needle": int(g.needle[i]),
+                "prev": int(g.cprev[i]),
+                "next": int(g.cnext[i]),
+                "wale_prev": wp[i],
+                "wale_next": wn[i],
+                "instr": INSTRUCTIONS[int(g.instr[i])],
+                "action": int(g.action[i]),
+                "span": g.spans[int(g.span[i])].to_json(),
+                **({"origin": g.spans[int(g.origin[i])].to_json()} if g.origin[i] >= 0 else {}),
+            }
             for i in range(g.n_stitches)
         ]
     return out
