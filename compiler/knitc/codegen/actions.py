@@ -57,6 +57,7 @@ import numpy as np
 
 from knitc.codegen import casting as cast
 from knitc.codegen.bed import Pos, Unsupported
+from knitc.codegen.bed import needle as needle_of
 from knitc.codegen.machine import Needle
 from knitc.codegen.steps import Action, continues_in_place, empty_needle_number
 from knitc.diagnostics import Note
@@ -599,8 +600,8 @@ class _Stitch:
         bed.prog.stitch_number(self.gen.opts.numbers.increase)
         bed.prog.split(
             d,
-            f"{src[0]}{src[1]}",
-            f"{dst[0]}{dst[1]}",
+            needle_of(src),
+            needle_of(dst),
             (self.ctx.carrier,),
             stitch=self.s,
             span=bed.span(self.s),

@@ -3,7 +3,8 @@
 Every emitter here writes one machine operation and updates the loop model in the same
 step, so the code passes (cast-on, actions, shaping, cast-off) never disagree with the
 program about where a stitch's loop is. Positions are (bed, needle) pairs with bed one of
-'f', 'b' (hooks) or 'fs', 'bs' (sliders).
+'f', 'b' (hooks) or 'fs', 'bs' (sliders), the keys of the loop model; an operation gets
+the `Needle` of its position (`needle`), never a name to parse back.
 """
 
 from __future__ import annotations
@@ -11,12 +12,17 @@ from __future__ import annotations
 from collections import defaultdict
 from dataclasses import dataclass, field
 
-from knitc.codegen.machine import MachineProgram
+from knitc.codegen.machine import MachineProgram, Needle
 from knitc.shaping.stitch_graph import StitchGraph
 
 Pos = tuple[str, int]
 BEDS = ("f", "b")
 SLIDERS = ("fs", "bs")
+
+
+def needle(pos: Pos) -> Needle:
+    """The machine needle of a bed position."""
+    return Needle(pos[0], pos[1])
 
 
 class Unsupported(Exception):
@@ -51,9 +57,7 @@ class Bed:
             self.rack = r
 
     def xfer(self, src: Pos, dst: Pos, stitch: int) -> None:
-        self.prog.xfer(
-            f"{src[0]}{src[1]}", f"{dst[0]}{dst[1]}", stitch=stitch, span=self.span(stitch)
-        )
+        self.prog.xfer(needle(src), needle(dst), stitch=stitch, span=self.span(stitch))
         moved = self.loops.pop(src, 0)
         self.loops[dst] += moved
         for s in self.at.pop(src, ()):
@@ -62,18 +66,18 @@ class Bed:
 
     def stitch_op(self, kind: str, d: int, pos: Pos, stitch: int, carrier: int) -> None:
         """knit / tuck / miss at `pos`; `stitch` -1 = a loop of no graph stitch (cast-on)."""
-        needle = f"{pos[0]}{pos[1]}"
+        at = needle(pos)
         span = self.span(stitch)
         if kind == "knit":
-            self.prog.knit(d, needle, (carrier,), stitch=stitch, span=span)
+            self.prog.knit(d, at, (carrier,), stitch=stitch, span=span)
             for s in self.at.pop(pos, ()):
                 del self.where[s]
             self.loops[pos] = 1
         elif kind == "tuck":
-            self.prog.tuck(d, needle, (carrier,), stitch=stitch, span=span)
+            self.prog.tuck(d, at, (carrier,), stitch=stitch, span=span)
             self.loops[pos] += 1
         elif kind == "miss":
-            self.prog.miss(d, needle, (carrier,), stitch=stitch, span=span)
+            self.prog.miss(d, at, (carrier,), stitch=stitch, span=span)
         else:
             raise ValueError(kind)
         self.carrier_at[carrier] = pos[1] + 0.5 * d
@@ -88,7 +92,7 @@ class Bed:
         self.at[pos].add(stitch)
 
     def drop(self, pos: Pos, stitch: int) -> None:
-        self.prog.drop(f"{pos[0]}{pos[1]}", stitch=stitch, span=self.span(stitch))
+        self.prog.drop(needle(pos), stitch=stitch, span=self.span(stitch))
         self.loops.pop(pos, None)
         for s in self.at.pop(pos, ()):
             del self.where[s]

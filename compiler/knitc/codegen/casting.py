@@ -68,7 +68,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from knitc.codegen.bed import Bed, Pos, Unsupported
+from knitc.codegen.bed import Bed, Pos, Unsupported, needle
 from knitc.codegen.transfers import move
 from knitc.source import Span
 
@@ -153,8 +153,7 @@ def emit(
     if stitch >= 0:
         bed.stitch_op(kind, d, pos, stitch, ctx.carrier)
         return
-    needle = f"{pos[0]}{pos[1]}"
-    getattr(bed.prog, kind)(d, needle, (ctx.carrier,), stitch=-1, span=ctx.span)
+    getattr(bed.prog, kind)(d, needle(pos), (ctx.carrier,), stitch=-1, span=ctx.span)
     if kind == "tuck":
         bed.loops[pos] += 1
     elif kind == "knit":

@@ -39,6 +39,7 @@ import numpy as np
 from knitc.codegen import actions
 from knitc.codegen import casting as cast
 from knitc.codegen.bed import BEDS, Bed, Pos, Unsupported
+from knitc.codegen.bed import needle as needle_of
 from knitc.codegen.machine import Machine, MachineProgram
 from knitc.codegen.steps import Action, continues_in_place, empty_needle_number, run_actions
 from knitc.codegen.transfers import move
@@ -877,8 +878,8 @@ def _split(gen: _Gen, ctx: cast.Ctx, s: int, d: int, target: Pos, sibling: int) 
     bed.set_rack(r)
     bed.prog.split(
         d,
-        f"{src[0]}{src[1]}",
-        f"{target[0]}{target[1]}",
+        needle_of(src),
+        needle_of(target),
         (ctx.carrier,),
         stitch=s,
         span=bed.span(s),
