@@ -602,7 +602,7 @@ class _Resolver:
         self.prop_values[key] = value
         return value
 
-    def _node(self, decl: ast.NodeDecl, machine: sk.Machine) -> sk.PrimNode:
+    def _node(self, decl: ast.NodeDecl, machine: sk.MachineSettings) -> sk.PrimNode:
         name, kind = decl.name.name, decl.kind
         schema = sk.NODE_PROPS[kind]
         hint = None
@@ -804,7 +804,7 @@ class _Resolver:
             raise EvalError("E406", f"`@{prop}` needs a node here", span, "write `@node.prop`")
         return self._prop_ref(node, prop, span)
 
-    def _machine(self, decls: list[ast.MachineDecl]) -> sk.Machine:
+    def _machine(self, decls: list[ast.MachineDecl]) -> sk.MachineSettings:
         for extra in decls[1:]:
             self.diags.error(
                 "E314",
@@ -815,7 +815,7 @@ class _Resolver:
             )
         values = self._props_block(decls[0].props, sk.MACHINE_PROPS, "`machine`") if decls else {}
         full = {k: values.get(k, s.default) for k, s in sk.MACHINE_PROPS.items()}
-        return sk.Machine(span=decls[0].span if decls else None, **full)
+        return sk.MachineSettings(span=decls[0].span if decls else None, **full)
 
     # -- interfaces, connections, starts
     def _itf(self, ref: ast.ItfRef, nodes: dict[str, sk.PrimNode]) -> sk.ItfId | None:

@@ -113,7 +113,11 @@ ACTION_PROPS: dict[str, PropSpec] = {
 
 
 @dataclass(frozen=True)
-class Machine:
+class MachineSettings:
+    """The design's `machine { ... }` block, defaults filled in: what the pipeline is
+    compiled for (not the machine model code generation emits for, `codegen.machine.Machine`,
+    which is built from it)."""
+
     model: str
     needles: int
     gauge: str
@@ -207,7 +211,7 @@ class Layer:
 
 @dataclass
 class Skeleton:
-    machine: Machine
+    machine: MachineSettings
     params: dict[str, Value]
     nodes: dict[str, PrimNode]
     interfaces: dict[ItfId, Interface]
