@@ -23,7 +23,8 @@ from knitc.cli import main
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source, emit_json
 from knitc.scheduling import schedule as ir
-from knitc.scheduling.scheduler import hub_bridges, schedule, valid_orders
+from knitc.scheduling.layouts import hub_bridges, valid_orders
+from knitc.scheduling.scheduler import schedule
 from knitc.scheduling.slices import ACTIVE, Slices
 from knitc.shaping.stitch_graph import StitchGraph, empty_pair
 

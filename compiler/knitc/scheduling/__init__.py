@@ -1,2 +1,3 @@
 """Scheduling: StitchGraph → Trace (`tracing`; the IR `trace`) → Slices (`slicing`; the IR
-`slices`) → Schedule (`scheduler`: layouts and needle offsets; the IR `schedule`)."""
+`slices`) → Schedule (`scheduler`, which runs `layouts` then `offsets` over the slices'
+`relations`; the IR `schedule`)."""
