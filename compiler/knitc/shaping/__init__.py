@@ -1,3 +1,4 @@
-"""Shaping: Skeleton → StitchGraph. Nodes are built in `node_order`, each primitive's
-courses and wales in `shape` (sheets, joints, splits), the wales between courses of
-different widths by `shapers`; the IR is `stitch_graph`."""
+"""Shaping: Skeleton → StitchGraph. `shape` builds the nodes in `node_order`, each by its
+primitive: `sheet` (sheets and tubes, their courses linked by `shapers`), `joint` (short
+rows) and `split` (splits and merges), on the shared pieces in `courses`; the IR is
+`stitch_graph`."""
