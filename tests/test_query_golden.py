@@ -142,7 +142,7 @@ def test_query_golden(name, shape, tmp_path):
 
 
 def test_every_query_function_has_a_golden():
-    from knitc.frontend.resolve import QUERY_FUNCTIONS
+    from knitc.frontend.names import QUERY_FUNCTIONS
 
     written = " ".join(QUERIES.values())
     missing = [f for f in QUERY_FUNCTIONS if f + "(" not in written]

@@ -32,8 +32,8 @@ from golden import assert_golden
 from knitc.cli import main
 from knitc.driver import compile_file, compile_source, emit_json
 from knitc.shaping import stitch_graph as sg
-from knitc.shaping.sheet import GOLDEN as GOLDEN_STEP
 from knitc.shaping.shapers import shape as shaper_map
+from knitc.shaping.sheet import GOLDEN as GOLDEN_STEP
 
 ROOT = Path(__file__).resolve().parent.parent
 KNITSKEL = ROOT / "examples" / "knitskel"

@@ -62,7 +62,7 @@ from knitc.codegen.machine import Needle
 from knitc.codegen.steps import Action, continues_in_place, empty_needle_number
 from knitc.diagnostics import Note
 from knitc.frontend import ast
-from knitc.frontend.resolve import ACTION_WORDS
+from knitc.frontend.names import ACTION_WORDS
 from knitc.lang.evaluate import EvalError, Profile, Value, Word, arith, show, type_name
 from knitc.lang.interp import Host, Interpreter, whole
 from knitc.patterning.actions import STD_FILE, STEP_BUDGET, Program, std_source

@@ -30,8 +30,8 @@ from functools import lru_cache
 
 from knitc.diagnostics import Diagnostics
 from knitc.frontend import ast
+from knitc.frontend.names import BUILTIN_ACTIONS
 from knitc.frontend.parser import parse_source
-from knitc.frontend.resolve import BUILTIN_ACTIONS
 from knitc.lang.evaluate import EvalError, Evaluator, Value
 from knitc.resources import stdlib_module
 from knitc.shaping.stitch_graph import INSTRUCTIONS
