@@ -1,6 +1,6 @@
 """Shaping: skeleton → stitch graph (thesis ch. 5.2 and 5.4.1).
 
-Each primitive, in the order and direction chosen by `flow.schedule_nodes`, becomes a run
+Each primitive, in the order and direction chosen by `node_order.schedule_nodes`, becomes a run
 of courses appended in knitting order, so stitch ids grow with time and every course is a
 contiguous id range (see `shaping.stitch_graph`). Geometry lives in one frame per node: a course
 is a list of (bed, needle) positions in yarn order; tubular courses are rings read
