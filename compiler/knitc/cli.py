@@ -41,6 +41,9 @@ examples:
                                                 the yarn path, one visit per line
   knitc --until schedule --time-passes examples/sweater.knit
                                                 run up to a stage, time every stage
+  knitc view examples/sweater.knit --bed -o bed.svg   the time-needle bed
+  knitc view examples/glove.knit --html -o glove.html  an interactive viewer
+  knitc lint other-tool.k                       simulate any Knitout, report hazards
   knitc fmt examples/sweater.knit               print the canonical form
   knitc fmt --check examples/*.knit             exit 1 if a file is not canonical
   knitc fmt -i examples/sweater.knit            rewrite a file in canonical form
@@ -80,7 +83,8 @@ def _main_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Compile a knitc garment description (.knit) for a knitting machine.\n"
         "Subcommands: `knitc check FILE`, `knitc fmt [--check] FILE...`, "
-        "`knitc k2dat IN.k -o OUT.dat`, `knitc dat2k IN.dat -o OUT.k`.",
+        "`knitc k2dat IN.k -o OUT.dat`, `knitc dat2k IN.dat -o OUT.k`, "
+        "`knitc view FILE --bed|--chart|--shape|--html -o OUT`, `knitc lint IN.k`.",
         epilog=EXAMPLES,
     )
     p.add_argument("file", metavar="FILE", help="the .knit design to compile")
@@ -130,6 +134,83 @@ def _check_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("file", metavar="FILE")
     _common(p)
+    return p
+
+
+def _view_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="knitc view",
+        description="Draw a design (.knit) or any Knitout program (.k): the time-needle bed, "
+        "the stitch charts, the garment's shape, or all three in one interactive HTML file.",
+    )
+    p.add_argument("file", metavar="FILE", help="a .knit design or a .k Knitout file")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument(
+        "--bed",
+        dest="view",
+        action="store_const",
+        const="bed",
+        help="the time-needle bed: passes up, needles across (default)",
+    )
+    g.add_argument(
+        "--chart",
+        dest="view",
+        action="store_const",
+        const="chart",
+        help="each node's stitch chart, course up, wale across",
+    )
+    g.add_argument(
+        "--shape",
+        dest="view",
+        action="store_const",
+        const="shape",
+        help="the garment's shape, a force layout of the stitch graph",
+    )
+    g.add_argument(
+        "--html",
+        dest="view",
+        action="store_const",
+        const="html",
+        help="one self-contained interactive HTML file with all three views",
+    )
+    p.add_argument(
+        "--compact",
+        action="store_true",
+        help="--bed: collapse the stretches where a piece only waits",
+    )
+    p.add_argument(
+        "--3d",
+        dest="three_d",
+        action="store_true",
+        help="--shape: a projected 3-D layout instead of a flat one",
+    )
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="OUT",
+        required=True,
+        help="the picture: .svg or .png (.html for --html)",
+    )
+    _common(p)
+    return p
+
+
+def _lint_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="knitc lint",
+        description="Simulate any Knitout program (from knitc or another tool) and report its "
+        "errors and knitting hazards, each at its line and needle.",
+    )
+    p.add_argument("file", metavar="IN.k")
+    p.add_argument(
+        "-W",
+        dest="warn",
+        action="append",
+        default=[],
+        choices=["error"],
+        help="-W error: treat warnings as errors",
+    )
+    p.add_argument("-q", "--quiet", action="store_true", help="print errors only")
     return p
 
 
@@ -229,7 +310,12 @@ def _cmd_compile(args: argparse.Namespace) -> int:
     if not args.output and not args.emit:
         args.until = args.until or STAGES[-1].name  # nothing to write: compile and report
     until = args.emit or args.until or target
-    result = compile_file(args.file, defines=args.defines, until=until, werror=werror)
+    from knitc.summary import progress
+
+    with progress(sys.stderr.isatty() and not args.quiet, len(STAGES) + 1) as on_stage:
+        result = compile_file(
+            args.file, defines=args.defines, until=until, werror=werror, on_stage=on_stage
+        )
     _report(result.diagnostics, args.quiet)
     if args.time_passes:
         sys.stderr.write(timing_table(result))
@@ -250,6 +336,10 @@ def _cmd_compile(args: argparse.Namespace) -> int:
         sys.stdout.buffer.write(output)
     else:
         sys.stdout.write(output)
+    if not args.emit and not args.quiet:
+        from knitc.summary import summary_line
+
+        sys.stderr.write(summary_line(result, args.output or "standard output"))
     return 0
 
 
@@ -336,6 +426,36 @@ def _cmd_dat2k(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_view(args: argparse.Namespace) -> int:
+    from knitc.view import render_file
+
+    diags, data = render_file(
+        args.file,
+        args.view or "bed",
+        os.path.splitext(args.output)[1].lower(),
+        defines=args.defines,
+        compact=args.compact,
+        three_d=args.three_d,
+    )
+    if "error" in args.warn:
+        diags.promote_warnings()
+    _report(diags, args.quiet)
+    if diags.has_errors or data is None:
+        return 1
+    write_atomic(args.output, data)
+    return 0
+
+
+def _cmd_lint(args: argparse.Namespace) -> int:
+    from knitc.lint import lint_file
+
+    diags = lint_file(args.file)
+    if "error" in args.warn:
+        diags.promote_warnings()
+    _report(diags, args.quiet)
+    return 1 if diags.has_errors else 0
+
+
 def _cmd_check(args: argparse.Namespace) -> int:
     # `check` runs the whole pipeline but writes nothing: a design that checks clean
     # compiles clean, and code generation's findings (E602, W60x, W80x) are reported too.
@@ -390,7 +510,7 @@ def main(argv: list[str] | None = None) -> int:
             (
                 i
                 for i, a in enumerate(argv)
-                if a in ("check", "fmt", "k2dat", "dat2k")
+                if a in ("check", "fmt", "k2dat", "dat2k", "view", "lint")
                 and (
                     i == 0
                     or argv[i - 1]
@@ -407,6 +527,10 @@ def main(argv: list[str] | None = None) -> int:
                 return _cmd_k2dat(_k2dat_parser().parse_args(rest))
             if argv[sub] == "dat2k":
                 return _cmd_dat2k(_dat2k_parser().parse_args(rest))
+            if argv[sub] == "view":
+                return _cmd_view(_view_parser().parse_args(rest))
+            if argv[sub] == "lint":
+                return _cmd_lint(_lint_parser().parse_args(rest))
             return _cmd_fmt(_fmt_parser().parse_args(rest))
         return _cmd_compile(_main_parser().parse_args(argv))
     except SystemExit as exc:  # argparse: --help, --version, usage errors

@@ -303,14 +303,19 @@ def _verify(name: str, problems: list[str]) -> None:
 # ---- running it -----------------------------------------------------------------------------
 
 
-def resume(result: Result, until: str = "machine") -> Result:
+def resume(
+    result: Result, until: str = "machine", on_stage: Callable[[str], None] | None = None
+) -> Result:
     """Continue `result` through stage `until` (an IR stage or a target), reusing the IRs it
-    already holds. Stops early after a stage that reported errors."""
+    already holds. Stops early after a stage that reported errors. `on_stage` is told the
+    name of each stage as it starts (a progress display)."""
     names = [s.name for s in STAGES]
     plan = STAGES[: names.index(until) + 1] if until in names else STAGES + (stage(until),)
     for step in plan[_index(result.stage_reached) :]:
         if result.diagnostics.has_errors:
             break
+        if on_stage is not None:
+            on_stage(step.name)
         start = time.perf_counter()
         ok = step.run(result)
         if ok and step.verify is not None:
@@ -338,8 +343,10 @@ def compile_source(
     defines: list[str] | tuple[str, ...] = (),
     until: str = "skeleton",
     werror: bool = False,
+    on_stage: Callable[[str], None] | None = None,
 ) -> Result:
-    """Run the pipeline on `text` up to and including stage `until`."""
+    """Run the pipeline on `text` up to and including stage `until` (`on_stage`: see
+    `resume`)."""
     from knitc.frontend.resolve import parse_define
 
     stage(until)  # a misspelt stage is a mistake of the caller, not "run everything"
@@ -348,7 +355,7 @@ def compile_source(
         got = parse_define(d, result.diagnostics)
         if got is not None:
             result.defines[got[0]] = got[1]
-    return resume(result, until)
+    return resume(result, until, on_stage)
 
 
 def compile_file(path: str, **kw: Any) -> Result:
