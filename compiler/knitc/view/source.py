@@ -1,0 +1,88 @@
+"""What every view draws from (`ViewInput`), loaded once from a design or a Knitout file."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from knitc.codegen.machine import MachineProgram
+from knitc.codegen.simulate import Finding
+from knitc.diagnostics import Diagnostics
+from knitc.driver import Result
+from knitc.scheduling.schedule import Schedule
+from knitc.shaping.stitch_graph import StitchGraph
+
+
+@dataclass
+class ViewInput:
+    """A machine program and, for a design, the stitch graph and schedule it came from.
+
+    `findings` are knitc's simulation of `program` (every hazard, located at an op);
+    `result` is the whole compilation of a design (None for Knitout), so a view can reach
+    any IR and the diagnostics."""
+
+    path: str
+    program: MachineProgram
+    findings: list[Finding] = field(default_factory=list)
+    graph: StitchGraph | None = None
+    schedule: Schedule | None = None
+    result: Result | None = None
+
+    @property
+    def from_design(self) -> bool:
+        return self.graph is not None
+
+
+@dataclass
+class Loaded:
+    diagnostics: Diagnostics
+    input: ViewInput | None
+
+
+def load(path: str, defines: list[str] | tuple[str, ...] = ()) -> Loaded:
+    """Compile `path` (.knit) through the machine stage, or read it as Knitout (.k, or any
+    file starting with `;!knitout-`), and simulate the program."""
+    from knitc.codegen.simulate import simulate
+
+    if _is_knitout(path):
+        from knitc.backends.knitout_read import KnitoutErrors, knitout_diagnostics, parse_knitout
+
+        try:
+            with open(path, encoding="utf-8") as f:
+                text = f.read()
+        except (OSError, UnicodeDecodeError) as exc:
+            diags = Diagnostics()
+            diags.error("E001", f"cannot read `{path}`: {exc}", None)
+            return Loaded(diags, None)
+        warnings: list = []
+        try:
+            prog = parse_knitout(text, path, warnings=warnings)
+        except KnitoutErrors as exc:
+            return Loaded(knitout_diagnostics(path, text, exc.errors, exc.warnings), None)
+        diags = knitout_diagnostics(path, text, (), warnings)
+        return Loaded(diags, ViewInput(path, prog, simulate(prog)))
+    from knitc.driver import compile_file
+
+    result = compile_file(path, defines=list(defines), until="machine")
+    if not result.ok or result.program is None:
+        return Loaded(result.diagnostics, None)
+    return Loaded(
+        result.diagnostics,
+        ViewInput(
+            path,
+            result.program,
+            simulate(result.program),
+            graph=result.graph,
+            schedule=result.schedule,
+            result=result,
+        ),
+    )
+
+
+def _is_knitout(path: str) -> bool:
+    if path.endswith(".k"):
+        return True
+    try:
+        with open(path, "rb") as f:
+            return f.read(11) == b";!knitout-2"
+    except OSError:
+        return False
