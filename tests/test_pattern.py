@@ -173,3 +173,30 @@ def test_a_warning_inside_nested_definitions_points_at_the_designers_line_with_e
     g = r.graph
     chained = g.spans[int(g.origin[g.course_ids(2)[0]])]
     assert [s.line for s in chained.chain()] == [4, 2, 1]  # one mechanism: Span.parent
+
+
+def test_a_definition_passes_its_own_arguments_on():
+    from knitc.driver import compile_source
+
+    src = (
+        "pattern p(n = 1) { set P where wales(0:n) }\n"
+        "pattern q(n = 2) { apply p(n + 1) }\n"
+        "sheet s { length: 4  width: 6 }\n"
+        "pattern s { apply q(2) }\n"
+    )
+    r = compile_source(src, "n.knit", until="stitch-graph")
+    assert r.ok, [str(d) for d in r.diagnostics]
+    g = r.graph
+    assert sorted({int(x) for x in g.needle[g.instr == 1]}) == [0, 1, 2, 3]  # wales 0..3
+
+
+def test_a_word_where_a_range_needs_a_number_is_located():
+    from knitc.driver import compile_source
+
+    src = (
+        "pattern p(n = 1) { set P where wales(0:n) }\n"
+        "sheet s { length: 4  width: 6 }\n"
+        "pattern s { apply p(front) }\n"
+    )
+    r = compile_source(src, "n.knit", until="stitch-graph")
+    assert [d.code for d in r.diagnostics] == ["E702"]

@@ -22,13 +22,15 @@ stitches: it returns the same graph with new `instr`, `action` and `origin` arra
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
+from typing import cast
 
 import numpy as np
 
 from knitc.diagnostics import Diagnostics
 from knitc.frontend import ast
 from knitc.frontend import skeleton as sk
-from knitc.lang.evaluate import EvalError, Evaluator, Word
+from knitc.lang.evaluate import EvalError, Evaluator, Value, Word
 from knitc.patterning import actions, drawing
 from knitc.patterning.query import Coords, QueryEnv, coords, evaluate_query, relative
 from knitc.shaping.stitch_graph import INSTRUCTIONS, StitchGraph
@@ -157,7 +159,7 @@ class _Run:
         def prop(node, name, span):
             raise EvalError("E703", "node properties cannot be pattern arguments", span)
 
-        ev = Evaluator(param, prop)
+        ev = _ArgumentEvaluator(param, prop, env.values)
         given: dict[str, ast.Node] = {}
         formals = [f.name.name for f in pdef.params]
         for i, a in enumerate(stmt.args):
@@ -180,3 +182,18 @@ class _Run:
             self.diags.error(err.code, err.message, err.span)
             return None
         return values
+
+
+class _ArgumentEvaluator(Evaluator):
+    """Evaluates an `apply`'s arguments: inside a definition, a bare name that is one of
+    its own formals is that formal's value (`apply p(n + 1)` passes a number on), any
+    other bare name a word."""
+
+    def __init__(self, param, prop, formals: Mapping[str, object]) -> None:
+        super().__init__(param, prop)
+        self.formals = formals
+
+    def _Name(self, e: ast.Name) -> Value:
+        if e.id in self.formals:
+            return cast(Value, self.formals[e.id])
+        return super()._Name(e)

@@ -685,7 +685,12 @@ class _Eval:
         if isinstance(e, ast.Number):
             return e.value, False
         if isinstance(e, ast.Name) and e.id in self.env.values:
-            return self.env.values[e.id], False
+            v = self.env.values[e.id]
+            if isinstance(v, bool) or not isinstance(v, int | float):
+                raise QueryError(
+                    "E702", f"`{e.id}` is {v!r} here, not a number a range can use", e.span
+                )
+            return v, False
         if isinstance(e, ast.Name) and e.id == "end":
             if end is None:
                 raise QueryError("E702", "`end` cannot be used here", e.span)
@@ -701,13 +706,10 @@ class _Eval:
         if isinstance(e, ast.Binary) and e.op in ("+", "-", "*", "/"):
             a, ua = self.bound(e.left, end)
             b, ub = self.bound(e.right, end)
-            if e.op == "/" and np.any(np.asarray(b) == 0):
-                raise QueryError("E702", "division by zero in a range", e.span)
-            with np.errstate(all="ignore"):
-                out = {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.true_divide}[e.op](
-                    a, b
-                )
-            return out, ua or ub
+            try:  # the language's one arithmetic, as in a filter
+                return arith.vector(e.op, a, b), ua or ub
+            except arith.ArithError as exc:
+                raise QueryError(exc.code, exc.message, e.span) from None
         raise QueryError("E702", "a range bound is a number, `end` or `#param` arithmetic", e.span)
 
     @staticmethod
