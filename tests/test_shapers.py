@@ -457,3 +457,15 @@ def test_shaper_without_m_and_n():
 def test_user_shaper_domain_is_checked_by_the_caller():
     with pytest.raises(ValueError):
         shape(STD["zigzag"], 5, 11)
+
+
+def test_a_huge_mapped_index_is_located_not_an_overflow():
+    from knitc.driver import compile_source
+
+    src = (
+        "shaper big(M, N) { for i in range(M) { i -> i + 10 ^ 30 } }\n"
+        "tube t { length: 4  width: [0: 4, 1: 6]  shaper: big }\n"
+    )
+    r = compile_source(src, "big.knit", until="stitch-graph")
+    assert [d.code for d in r.diagnostics] == ["E318"]
+    assert r.diagnostics.sorted()[0].span.line == 1

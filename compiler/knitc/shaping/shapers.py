@@ -306,6 +306,8 @@ def _index(v: Value, span: Span) -> int:
             span,
             "round it with `floor`, `ceil` or `round`",
         )
+    if abs(i) >= 2**31:  # no course comes near; checked before the wales become arrays
+        raise EvalError("E318", f"stitch index {show(v)} is outside any course", span)
     return i
 
 
