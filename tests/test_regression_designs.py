@@ -12,6 +12,10 @@ Fabric: a flat piece closed into a tube (bound mirrored, its right end continuin
 tube's front left), a tube opened into one flat piece by an unfolded split (its back half
 was left unattached), and a closed tube start cast on by a precast (the precast loops on the
 back stood in for the split loops that close the end).
+
+Lace: a move between two stitches the layout put on opposite beds (a ring rolled between
+them) was carried through the facing needle, on the target's own bed, and then transferred
+within one bed (an internal error); the loop now goes straight across.
 """
 
 from __future__ import annotations
@@ -71,6 +75,14 @@ TUBE_OPENED = (
     "s.branches[0] -> f.bottom\n"
 )
 PRECAST_CLOSED = "tube t { length: 6  width: 6 }\nt.bottom closed { cast_on: precast }\n"
+LACE_ACROSS_THE_FOLD = """\
+tube n1 { length: 4  width: 3 }
+sheet n3 { length: 8  type: flat  width: [0: 6, 1: 14]  shaper: sides }
+start n3.top
+n1.top -> n3.bottom
+pattern n1 { set FR1 where filter(wale % 3 == 1) }
+"""
+
 DESIGNS = {
     **CROWNS,
     **ZIGZAGS,
@@ -81,6 +93,7 @@ DESIGNS = {
     "tube-opened-flat-knitted-back": TUBE_OPENED.replace("a.top", "a.bottom"),
     "closed-start-precast": PRECAST_CLOSED,
     "closed-start-precast-half": "machine { gauge: half }\n" + PRECAST_CLOSED,
+    "lace-move-across-the-rolled-fold": LACE_ACROSS_THE_FOLD,
 }
 
 

@@ -40,7 +40,7 @@ from knitc.codegen import actions
 from knitc.codegen import casting as cast
 from knitc.codegen.bed import BEDS, Bed, Pos, Unsupported
 from knitc.codegen.bed import needle as needle_of
-from knitc.codegen.machine import Machine, MachineProgram
+from knitc.codegen.machine import Machine, MachineProgram, racking_for
 from knitc.codegen.steps import Action, continues_in_place, empty_needle_number, run_actions
 from knitc.codegen.transfers import move
 from knitc.diagnostics import Diagnostics
@@ -507,9 +507,15 @@ def _carry(gen: _Gen, chunk: np.ndarray) -> None:
     bed.prog.stitch_number(gen.opts.numbers.transfer)
     bed.set_rack(0)
     waiting = {}
-    for x, here, _ in moves:
+    for x, here, dst in moves:
         if bed.where[x] != here:  # a B move's loop, knitted on the facing needle
             waiting[x] = bed.where[x]
+            continue
+        if here[0] != dst[0]:
+            # the layout put the two stitches on opposite beds (a ring rolled between
+            # them): the loop goes straight across, no stop on the facing needle, which is
+            # on the target's own bed and could not transfer to it
+            waiting[x] = here
             continue
         waiting[x] = _free_facing(gen, here)
         bed.xfer(here, waiting[x], x)
@@ -522,7 +528,7 @@ def _carry(gen: _Gen, chunk: np.ndarray) -> None:
     for round_moves in rounds:
         for x, here, dst in sorted(round_moves, key=lambda m: m[2][1] - m[1][1]):
             if x in waiting:
-                bed.set_rack(dst[1] - here[1] if here[0] == "f" else here[1] - dst[1])
+                bed.set_rack(racking_for(needle_of(waiting[x]), needle_of(dst)))
                 bed.xfer(waiting[x], dst, x)
     bed.set_rack(0)
     for t, away in lifted:
