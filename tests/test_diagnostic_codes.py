@@ -21,9 +21,6 @@ WITHOUT_GOLDEN_CASE: dict[str, str] = {
     "E317": "the resolver reports an assignment to a context name (`needle = ...`) as E222 "
     "before any action runs, so the interpreter's own check cannot fire; "
     "tests/test_interp.py::test_constants_are_readable_not_assignable",
-    "E532": "defensive: a joint's short rows are contiguous, so the walk from where the yarn "
-    "arrives always reaches an end of the first row; no design found reaches it "
-    "(tests/test_props_shape.py filters it, no unit test triggers it)",
     # knitc's simulation of its own machine program (codegen/simulate.py) runs only on what
     # code generation made, which is clean by construction; `k2dat` does not simulate.
     "E801": "simulator, only a code-generation bug: tests/test_simulate.py::test_misaligned_xfer",

@@ -1011,3 +1011,11 @@ def test_zigzag_course_into_joint(closing):
         assert sg.verify(r.graph) == []
     else:
         assert r.diagnostics.has_errors
+
+
+def test_a_full_round_short_row_ending_inside_the_next_is_an_error_not_a_backward_wale():
+    from knitc.driver import compile_source
+
+    src = "tube a { length: 2  width: 3 }\njoint k { rows: 3  width: [0: 6, 1: 1] }\n"
+    r = compile_source(src + "a.top -> k.bottom\n", "j.knit", until="stitch-graph")
+    assert [d.code for d in r.diagnostics] == ["E532"]

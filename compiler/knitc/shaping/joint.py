@@ -148,10 +148,21 @@ def build_joint(state: ShapeState, node: PrimNode, visit: NodeVisit) -> None:
             seqs.append(nxt if y == nxt[0] else nxt[::-1])
         elif y in nxt:  # extend the current row along the next until its end
             far = nxt[-1] if d > 0 else nxt[0]
-            c = y
+            c, seen = y, set(cur)
             while c != far:
                 c = step(c, d)
                 assert c is not None  # `far` lies ahead in direction d, on the bed
+                if c in seen:  # a full round: extending it would knit a column twice
+                    state.diags.error(
+                        "E532",
+                        f"the short rows of joint `{node.name}` cannot go on after a row "
+                        "all the way round: it ends inside the next row",
+                        node.prop_spans.get("width", node.span),
+                        hint="keep the short rows narrower than the course (a row as wide "
+                        "as the ring is a plain course: put it in the tube before the joint)",
+                    )
+                    state.failed = True
+                    return
                 cur.append(c)
             seqs.append(nxt[::-1] if far == nxt[-1] else nxt)
         else:  # walk back along the current row to the next row's end
