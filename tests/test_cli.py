@@ -392,3 +392,26 @@ def test_output_file_named_like_a_subcommand(capsys, write, tmp_path, monkeypatc
     code, _, _ = run(capsys, "--emit", "ast", "--output", "check", path)
     assert code == 0
     assert (tmp_path / "check").is_file()
+
+
+def test_outputs_keep_modes_write_through_links_and_never_replace_devices(tmp_path, capsys):
+    import os
+    import stat
+
+    from knitc.cli import main, write_atomic
+
+    design = tmp_path / "t.knit"
+    design.write_text("tube t {length: 2}\n")
+    os.chmod(design, 0o600)
+    assert main(["fmt", "-i", str(design)]) == 0
+    assert stat.S_IMODE(os.stat(design).st_mode) == 0o600  # fmt -i keeps a private design
+    real, link = tmp_path / "real.k", tmp_path / "link.k"
+    link.symlink_to(real.name)
+    write_atomic(str(link), "x\n")
+    assert link.is_symlink() and real.read_text() == "x\n"
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    fd = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)  # a reader, so the write does not block
+    write_atomic(str(fifo), "y\n")
+    assert os.read(fd, 10) == b"y\n" and stat.S_ISFIFO(os.stat(fifo).st_mode)
+    os.close(fd)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import stat
 import sys
 import tempfile
 import traceback
@@ -276,21 +277,73 @@ def _report(diags: Diagnostics, quiet: bool) -> None:
         sys.stderr.write(f"knitc: {', '.join(parts)}\n")
 
 
+def output_problem(path: str, inputs: tuple[str, ...] = ()) -> str | None:
+    """Why `path` cannot take an output (checked before any work is done), or None: a
+    missing directory, a directory, one of the `inputs` (a compile must not overwrite its
+    design)."""
+    target = os.path.realpath(path)
+    parent = os.path.dirname(target)
+    if os.path.isdir(target):
+        return f"`{path}` is a directory"
+    if not os.path.isdir(parent):
+        return f"the directory `{os.path.dirname(path) or '.'}` does not exist"
+    for i in inputs:
+        if os.path.exists(i) and os.path.exists(target) and os.path.samefile(i, target):
+            return f"`{path}` is the input file; it would be overwritten"
+    return None
+
+
 def write_atomic(path: str, data: str | bytes) -> None:
-    """Write `data` to `path` via a temporary file in the same directory and a rename."""
-    directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".knitc-", dir=directory)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data.encode("utf-8") if isinstance(data, str) else data)
+    """Write `data` to `path` so that a failed run never leaves a partial file: through a
+    temporary file in the same directory and a rename. A symlink is written through (the
+    link stays), an existing file keeps its mode, and what is not a regular file (a device
+    such as /dev/null, a FIFO) is written to directly, never replaced by a file."""
+    payload = data.encode("utf-8") if isinstance(data, str) else data
+    target = os.path.realpath(path)
+    if os.path.exists(target) and not stat.S_ISREG(os.stat(target).st_mode):
+        with open(target, "wb") as f:
+            f.write(payload)
+        return
+    if os.path.exists(target):
+        mode = stat.S_IMODE(os.stat(target).st_mode)
+    else:
         umask = os.umask(0)
         os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # what a plain open() would have made, not mkstemp's 0600
-        os.replace(tmp, path)
+        mode = 0o666 & ~umask  # what a plain open() would have made, not mkstemp's 0600
+    fd, tmp = tempfile.mkstemp(prefix=".knitc-", dir=os.path.dirname(target))
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(payload)
+        os.chmod(tmp, mode)
+        os.replace(tmp, target)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def _write(path: str, data: str | bytes) -> bool:
+    """`write_atomic`, with a failure reported as E002 instead of a traceback."""
+    try:
+        write_atomic(path, data)
+    except OSError as exc:
+        _cannot_write(path, exc.strerror or str(exc))
+        return False
+    return True
+
+
+def _cannot_write(path: str, reason: str) -> None:
+    sys.stderr.write(f"knitc: error[E002]: cannot write `{path}`: {reason}\n")
+
+
+def _output_ok(path: str | None, inputs: tuple[str, ...]) -> bool:
+    if not path or path == "-":
+        return True
+    problem = output_problem(path, inputs)
+    if problem is not None:
+        _cannot_write(path, problem)
+        return False
+    return True
 
 
 def _cmd_compile(args: argparse.Namespace) -> int:
@@ -302,6 +355,8 @@ def _cmd_compile(args: argparse.Namespace) -> int:
     if args.emit and args.until:
         sys.stderr.write("knitc: error: give --emit or --until, not both\n")
         return 2
+    if not _output_ok(args.output, (args.file,)):
+        return 1
     if target == "dat" and to_stdout and not args.emit and not args.until:
         sys.stderr.write(
             "knitc: error: a DAT file is binary: give an output file with -o FILE.dat\n"
@@ -331,7 +386,8 @@ def _cmd_compile(args: argparse.Namespace) -> int:
         output = result.output
     assert output is not None
     if not to_stdout:
-        write_atomic(args.output, output)
+        if not _write(args.output, output):
+            return 1
     elif isinstance(output, bytes):
         sys.stdout.buffer.write(output)
     else:
@@ -370,6 +426,8 @@ def _read_input(path: str, binary: bool) -> str | bytes | None:
 def _cmd_k2dat(args: argparse.Namespace) -> int:
     from knitc.backends.knitout_read import KnitoutErrors, knitout_diagnostics, parse_knitout
 
+    if not _output_ok(args.output or os.path.splitext(args.file)[0] + ".dat", (args.file,)):
+        return 1
     text = _read_input(args.file, binary=False)
     if text is None:
         return 1
@@ -386,8 +444,7 @@ def _cmd_k2dat(args: argparse.Namespace) -> int:
         return 1
     _report(diags, args.quiet)
     out = args.output or os.path.splitext(args.file)[0] + ".dat"
-    write_atomic(out, data)
-    return 0
+    return 0 if _write(out, data) else 1
 
 
 def _cmd_dat2k(args: argparse.Namespace) -> int:
@@ -397,6 +454,8 @@ def _cmd_dat2k(args: argparse.Namespace) -> int:
     from knitc.backends.dat_read import DatReadError, dat_to_program
     from knitc.backends.knitout import write_knitout
 
+    if not _output_ok(args.output, (args.file,)):
+        return 1
     data = _read_input(args.file, binary=True)
     if data is None:
         return 1
@@ -420,15 +479,16 @@ def _cmd_dat2k(args: argparse.Namespace) -> int:
         sys.stderr.write(f"{args.file}: error[E902]: not a DAT file knitc can read: {exc}\n")
         return 1
     if args.output:
-        write_atomic(args.output, text)
-    else:
-        sys.stdout.write(text)
+        return 0 if _write(args.output, text) else 1
+    sys.stdout.write(text)
     return 0
 
 
 def _cmd_view(args: argparse.Namespace) -> int:
     from knitc.view import render_file
 
+    if not _output_ok(args.output, (args.file,)):
+        return 1
     diags, data = render_file(
         args.file,
         args.view or "bed",
@@ -442,8 +502,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
     _report(diags, args.quiet)
     if diags.has_errors or data is None:
         return 1
-    write_atomic(args.output, data)
-    return 0
+    return 0 if _write(args.output, data) else 1
 
 
 def _cmd_lint(args: argparse.Namespace) -> int:
@@ -495,8 +554,8 @@ def _cmd_fmt(args: argparse.Namespace) -> int:
                 sys.stderr.write(f"knitc fmt: {path} is not in canonical form\n")
                 status = 1
         elif args.in_place:
-            if out != text:
-                write_atomic(path, out)
+            if out != text and not _write(path, out):
+                status = 1
         else:
             sys.stdout.write(out)
     return status
