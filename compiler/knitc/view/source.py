@@ -18,7 +18,9 @@ class ViewInput:
 
     `findings` are knitc's simulation of `program` (every hazard, located at an op);
     `result` is the whole compilation of a design (None for Knitout), so a view can reach
-    any IR and the diagnostics."""
+    any IR and the diagnostics; `diagnostics` are the loading's (the compilation's, or the
+    Knitout reader's warnings), with the sources they point into, for views that list
+    them (the HTML viewer's warnings panel)."""
 
     path: str
     program: MachineProgram
@@ -26,6 +28,7 @@ class ViewInput:
     graph: StitchGraph | None = None
     schedule: Schedule | None = None
     result: Result | None = None
+    diagnostics: Diagnostics = field(default_factory=Diagnostics)
 
     @property
     def from_design(self) -> bool:
@@ -59,7 +62,7 @@ def load(path: str, defines: list[str] | tuple[str, ...] = ()) -> Loaded:
         except KnitoutErrors as exc:
             return Loaded(knitout_diagnostics(path, text, exc.errors, exc.warnings), None)
         diags = knitout_diagnostics(path, text, (), warnings)
-        return Loaded(diags, ViewInput(path, prog, simulate(prog)))
+        return Loaded(diags, ViewInput(path, prog, simulate(prog), diagnostics=diags))
     from knitc.driver import compile_file
 
     result = compile_file(path, defines=list(defines), until="machine")
@@ -74,6 +77,7 @@ def load(path: str, defines: list[str] | tuple[str, ...] = ()) -> Loaded:
             graph=result.graph,
             schedule=result.schedule,
             result=result,
+            diagnostics=result.diagnostics,
         ),
     )
 
