@@ -90,6 +90,8 @@ def test_stdlib_module_mapping():
         ("knitc", "compiler/knitc", "**/*.py"),
         ("knitc.grammars", "grammars", "**/*.lark"),
         ("knitc.stdlib", "stdlib", "**/*.knit"),
+        ("knitc.view", "compiler/knitc/view", "**/*.js"),  # the HTML viewer inlines these
+        ("knitc.view", "compiler/knitc/view", "**/*.css"),
     ],
 )
 def test_installed_package_mirrors_source(package, source_dir, pattern):
