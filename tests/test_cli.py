@@ -201,7 +201,7 @@ def test_define_value_named_check(capsys, write):
 def test_define_reaches_emitted_ast_stage(capsys, write):
     path = write("param n = 2\n")
     code, _, err = run(capsys, "-D", "n=(", "--emit", "ast", path)
-    assert code == 1 and "E408" in err
+    assert code == 2 and "E408" in err  # a command-line mistake (README: exit 2)
 
 
 # ---- --emit ------------------------------------------------------------------------------------
@@ -415,3 +415,12 @@ def test_outputs_keep_modes_write_through_links_and_never_replace_devices(tmp_pa
     write_atomic(str(fifo), "y\n")
     assert os.read(fd, 10) == b"y\n" and stat.S_ISFIFO(os.stat(fifo).st_mode)
     os.close(fd)
+
+
+def test_a_byte_order_mark_is_not_a_character_of_the_design(tmp_path, capsys):
+    from knitc.cli import main
+
+    f = tmp_path / "bom.knit"
+    f.write_bytes(b"\xef\xbb\xbftube t { length: 2 }\n")
+    assert main(["check", str(f)]) == 0
+    assert main(["fmt", "--check", str(f)]) == 0

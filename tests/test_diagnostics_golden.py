@@ -103,7 +103,10 @@ def _check_well_formed(stderr: str, code: int) -> None:
         assert summary == (errors, warnings), (
             f"summary {summary} does not match {errors} error(s), {warnings} warning(s)"
         )
-    assert code == (1 if errors else 0), f"exit status {code} with {errors} error(s)"
+    usage = "error[E408]" in stderr  # a -D mistake is a command-line mistake: exit 2
+    assert code == (2 if usage else 1 if errors else 0), (
+        f"exit status {code} with {errors} error(s)"
+    )
 
 
 def test_there_are_enough_cases():

@@ -371,6 +371,9 @@ def _cmd_compile(args: argparse.Namespace) -> int:
         result = compile_file(
             args.file, defines=args.defines, until=until, werror=werror, on_stage=on_stage
         )
+    if any(d.code == "E408" for d in result.diagnostics):  # a command-line mistake
+        _report(result.diagnostics, args.quiet)
+        return 2
     _report(result.diagnostics, args.quiet)
     if args.time_passes:
         sys.stderr.write(timing_table(result))
@@ -524,6 +527,8 @@ def _cmd_check(args: argparse.Namespace) -> int:
     _report(result.diagnostics, args.quiet)
     if args.time_passes:
         sys.stderr.write(timing_table(result))
+    if any(d.code == "E408" for d in result.diagnostics):  # a command-line mistake
+        return 2
     return 0 if result.ok else 1
 
 
@@ -536,7 +541,7 @@ def _cmd_fmt(args: argparse.Namespace) -> int:
     for path in args.files:
         diags = Diagnostics()
         try:
-            with open(path, encoding="utf-8") as f:
+            with open(path, encoding="utf-8-sig") as f:
                 text = f.read()
         except (OSError, UnicodeDecodeError) as exc:
             diags.error("E001", f"cannot read `{path}`: {exc}", None)

@@ -33,7 +33,7 @@ from knitc.scheduling import schedule as sc
 from knitc.scheduling import slices as sl
 from knitc.scheduling import trace as tr
 from knitc.shaping import stitch_graph as sg
-from knitc.source import SourceFile
+from knitc.source import SourceFile, Span
 
 T = TypeVar("T")
 
@@ -110,6 +110,15 @@ def _stitch_graph(r: Result) -> bool:
     from knitc.shaping.shape import build_stitch_graph
 
     assert r.skeleton is not None
+    if not r.skeleton.nodes:  # a header-only program would "knit" silently
+        r.diagnostics.error(
+            "E511",
+            f"`{r.path}` declares no sheet, tube, joint or split: there is nothing to knit",
+            Span(r.path, 1, 1, 1, 1),
+            hint="declare a piece, e.g. `tube body { length: 40  width: 30 }`; a file of "
+            "definitions only is imported by a design (`import`), not compiled",
+        )
+        return False
     graph = build_stitch_graph(r.skeleton, r.diagnostics)
     if graph is None:
         return False
@@ -361,7 +370,7 @@ def compile_source(
 def compile_file(path: str, **kw: Any) -> Result:
     """Read `path` (UTF-8) and compile it; unreadable files become diagnostics."""
     try:
-        with open(path, encoding="utf-8") as f:
+        with open(path, encoding="utf-8-sig") as f:  # a BOM some editors write is not text
             text = f.read()
     except (OSError, UnicodeDecodeError) as exc:
         diags = Diagnostics()
