@@ -402,6 +402,33 @@ def test_hovering_an_op_shows_its_source_line(driver, tube_page):
     assert _severe(driver) == []
 
 
+def test_wheel_zooms_and_drag_pans(driver, tube_page):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.actions.wheel_input import ScrollOrigin
+
+    inp, path = tube_page
+    _open(driver, path)
+    _click_tab(driver, "chart")
+    s = inp.graph.n_stitches // 2
+    at = driver.execute_script(f"return window.knitcViewer.focus('stitch', {s}, 10);")
+    canvas = driver.find_element("id", "canvas")
+    # zoom in around the stitch: it gets bigger and stays under the mouse
+    dx, dy = round(at["x"] - canvas.size["width"] / 2), round(at["y"] - canvas.size["height"] / 2)
+    origin = ScrollOrigin.from_element(canvas, dx, dy)
+    ActionChains(driver).scroll_from_origin(origin, 0, -400).perform()
+    time.sleep(0.2)
+    zoomed = driver.execute_script(f"return window.knitcViewer.itemPixel('stitch', {s});")
+    assert zoomed["cell"] > at["cell"] * 1.5
+    assert abs(zoomed["x"] - at["x"]) < 3 and abs(zoomed["y"] - at["y"]) < 3
+    # drag: the picture follows the mouse
+    chain = ActionChains(driver).move_to_element_with_offset(canvas, dx, dy).click_and_hold()
+    chain.move_by_offset(60, -40).release().perform()
+    time.sleep(0.2)
+    moved = driver.execute_script(f"return window.knitcViewer.itemPixel('stitch', {s});")
+    assert abs(moved["x"] - zoomed["x"] - 60) < 3 and abs(moved["y"] - zoomed["y"] + 40) < 3
+    assert _severe(driver) == []
+
+
 def test_clicking_a_warning_highlights_its_stitches(driver, tube_page):
     _, path = tube_page
     _open(driver, path)

@@ -508,7 +508,8 @@ def page(data: dict[str, Any]) -> str:
         '  <span id="legend"></span>\n'
         "</header>\n"
         '<main id="main">\n'
-        '  <div id="stage"><canvas id="canvas"></canvas><div id="notice" hidden></div></div>\n'
+        '  <div id="stage"><canvas id="canvas"></canvas><canvas id="overlay"></canvas>'
+        '<div id="notice" hidden></div></div>\n'
         '  <aside id="side"><h2>Warnings <span id="warning-count"></span></h2>'
         '<ol id="warnings"></ol></aside>\n'
         "</main>\n"

@@ -261,6 +261,9 @@
   const canvas = document.getElementById("canvas");
   const stage = document.getElementById("stage");
   const ctx = canvas.getContext("2d");
+  // The hover outline has a canvas of its own, so moving the mouse never redraws the items.
+  const overlay = document.getElementById("overlay");
+  const octx = overlay.getContext("2d");
   const tooltip = document.getElementById("tooltip");
   const notice = document.getElementById("notice");
   const cams = {};
@@ -276,11 +279,13 @@
     const dpr = window.devicePixelRatio || 1;
     cssW = Math.max(1, stage.clientWidth);
     cssH = Math.max(1, stage.clientHeight);
-    canvas.width = Math.round(cssW * dpr);
-    canvas.height = Math.round(cssH * dpr);
-    canvas.style.width = cssW + "px";
-    canvas.style.height = cssH + "px";
-    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    [canvas, overlay].forEach(function (cv) {
+      cv.width = Math.round(cssW * dpr);
+      cv.height = Math.round(cssH * dpr);
+      cv.style.width = cssW + "px";
+      cv.style.height = cssH + "px";
+      cv.getContext("2d").setTransform(dpr, 0, 0, dpr, 0, 0);
+    });
   }
 
   /* The camera: screen x = tx + x * s, screen y = ty - y * s (y up). */
@@ -345,14 +350,21 @@
         ctx.strokeRect(p[0] - w / 2 - 2, p[1] - h / 2 - 2, w + 4, h + 4);
       });
     }
-    if (hover >= 0) {
-      const p = toScreen(c, v.x[hover], v.y[hover]);
-      ctx.strokeStyle = HOVER;
-      ctx.lineWidth = 2;
-      ctx.strokeRect(p[0] - w / 2 - 1, p[1] - h / 2 - 1, w + 2, h + 2);
-    }
     drawLabels(v, c);
     if (v.axes) v.axes(v, c);
+    drawHover();
+  }
+
+  function drawHover() {
+    octx.clearRect(0, 0, cssW, cssH);
+    const v = view();
+    if (!v || hover < 0) return;
+    const c = cam();
+    const w = Math.max(1, v.w * c.s), h = Math.max(1, v.h * c.s);
+    const p = toScreen(c, v.x[hover], v.y[hover]);
+    octx.strokeStyle = HOVER;
+    octx.lineWidth = 2;
+    octx.strokeRect(p[0] - w / 2 - 1, p[1] - h / 2 - 1, w + 2, h + 2);
   }
 
   function drawLabels(v, c) {
@@ -440,7 +452,7 @@
   canvas.addEventListener("mouseleave", function () {
     hover = -1;
     tooltip.hidden = true;
-    redraw();
+    drawHover();
   });
   canvas.addEventListener("mousemove", function (e) {
     const v = view();
@@ -458,7 +470,7 @@
     }
     const r = canvas.getBoundingClientRect();
     const i = pick(v, c, e.clientX - r.left, e.clientY - r.top);
-    if (i !== hover) { hover = i; redraw(); }
+    if (i !== hover) { hover = i; drawHover(); }
     if (i >= 0) showTooltip(v, i, e.clientX, e.clientY);
     else tooltip.hidden = true;
   });
