@@ -19,7 +19,7 @@ course starts as the ring its flattened bed layout inflates to.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -38,7 +38,7 @@ BEND_WEIGHT = 0.5
 ANCHOR = 1e-3
 """Pull towards the start, relative to a spring: enough to make the system solvable and
 keep unconnected pieces where the schedule put them, small enough not to shape anything."""
-ITERATIONS = 25
+ITERATIONS = 12
 
 
 def layout(
@@ -46,18 +46,21 @@ def layout(
     three_d: bool = False,
     *,
     schedule: Schedule | None = None,
+    exact_needles: bool = False,
     iterations: int = ITERATIONS,
 ) -> np.ndarray:
     """Positions of every stitch, (n, 2) or (n, 3) float64, in stitch widths: x across,
     y up (knitting time), z towards the viewer (the front bed) in 3-D.
 
     `schedule` (when the design has one) gives the starting needles; without it the
-    stitches start at the graph's needle hints, each node placed over its parents."""
+    stitches start at the graph's needle hints, each node placed over its parents, or
+    exactly at them with `exact_needles` (a graph of a program's loops, whose needles are
+    the machine's)."""
     n = graph.n_stitches
     dim = 3 if three_d else 2
     if n == 0:
         return np.zeros((0, dim))
-    x0 = start(graph, three_d, schedule=schedule)
+    x0 = start(graph, three_d, schedule=schedule, exact_needles=exact_needles)
     if iterations <= 0 or n == 1:
         return x0
     i, j, d, w = springs(graph)
@@ -65,17 +68,22 @@ def layout(
 
 
 def start(
-    graph: StitchGraph, three_d: bool = False, *, schedule: Schedule | None = None
+    graph: StitchGraph,
+    three_d: bool = False,
+    *,
+    schedule: Schedule | None = None,
+    exact_needles: bool = False,
 ) -> np.ndarray:
     """The starting positions of `layout` (see the module docstring)."""
     n = graph.n_stitches
-    x = across(graph, schedule)
+    x = graph.needle.astype(np.float64) if exact_needles else across(graph, schedule)
     y = depth(graph).astype(np.float64) * WALE_LEN
     if not three_d:
         # the back of a flattened tube a hair behind and above its front, so no spring
         # starts at length zero (the majorization has no direction for it)
         return np.column_stack([x, y + 1e-3 * graph.side])
-    z = np.zeros(n)
+    # a program's loops have no rings: its beds a stitch apart, so a tube has two sides
+    z = -COURSE_LEN * graph.side.astype(np.float64) if exact_needles else np.zeros(n)
     circ = graph.course_circular[graph.course]
     if np.any(circ):
         c = graph.course.astype(np.int64)
@@ -95,12 +103,79 @@ def start(
         zr = np.where(front, 1.0, -1.0) * radius * np.sin(ang)
         x = np.where(circ, xr, x)
         z = np.where(circ, zr, z)
-    return np.column_stack([x, y, z])
+    pos = np.column_stack([x, y, z])
+    return pos if exact_needles else grow(graph, pos)
+
+
+def grow(graph: StitchGraph, pos: np.ndarray) -> np.ndarray:
+    """Knit the 3-D start course by course: every stitch a wale's height along its parents'
+    growth direction from them, each ring then refitted as a round course of its size in
+    the plane its stitches lie in, whose normal becomes the direction its children grow.
+    So short rows on one side tilt the next ring and a heel turns the foot, which springs
+    started from a straight tube would not find; a ring where pieces merge grows on their
+    mean direction instead (sleeves shorter than the body must not tip the yoke). Courses with no wales below them (where
+    pieces start) keep the positions of `pos`."""
+    out = pos.copy()
+    up = np.zeros_like(pos)
+    up[:, 1] = 1.0
+    wp = graph.wale_prev
+    radius_of = graph.course_len * COURSE_LEN / (2 * np.pi)
+    for c in range(graph.n_courses):
+        a = int(graph.course_start[c])
+        b = a + int(graph.course_len[c])
+        p = wp[a:b]
+        h = p >= 0
+        k = h.sum(axis=1)
+        got = k > 0
+        if not got.any():
+            continue
+        q = np.maximum(p, 0)
+        pp = (out[q] * h[..., None]).sum(axis=1)[got] / k[got, None]
+        pu = (up[q] * h[..., None]).sum(axis=1)[got] / k[got, None]
+        pu /= np.maximum(np.linalg.norm(pu, axis=1), 1e-12)[:, None]
+        new = out[a:b].copy()
+        new[got] = pp + WALE_LEN * pu
+        if not got.all():  # stitches with no wale below move with their course
+            new[~got] += (new[got] - out[a:b][got]).mean(axis=0)
+        mean_up = pu.mean(axis=0)
+        mean_up /= max(float(np.linalg.norm(mean_up)), 1e-12)
+        if graph.course_circular[c] and b - a >= 3:
+            centre = new.mean(axis=0)
+            _, sv, vt = np.linalg.svd(new - centre, full_matrices=False)
+            normal = vt[2]
+            merge = np.unique(graph.node[q[h]]).shape[0] > 1
+            if merge or sv[1] < 0.25 * sv[0]:
+                # where pieces merge (their tops at their own heights), or on a ring that is
+                # nearly a line (an arc of a flattened piece), keep growing the parents' way
+                e1 = vt[0]
+                normal = mean_up - (mean_up @ e1) * e1
+            if normal @ mean_up < 0:
+                normal = -normal
+            normal /= max(float(np.linalg.norm(normal)), 1e-12)
+            e1 = new[0] - centre
+            e1 -= (e1 @ normal) * normal
+            if np.linalg.norm(e1) < 1e-9:
+                e1 = vt[0] - (vt[0] @ normal) * normal
+            e1 /= max(float(np.linalg.norm(e1)), 1e-12)
+            e2 = np.cross(normal, e1)
+            # the ring runs the way its stitches do around the normal
+            rel = new - centre
+            ang = np.unwrap(np.arctan2(rel @ e2, rel @ e1))
+            turn = 1.0 if ang[-1] >= ang[0] else -1.0
+            t = turn * 2 * np.pi * np.arange(b - a) / (b - a)
+            r = float(radius_of[c])
+            new = centre + r * (np.cos(t)[:, None] * e1 + np.sin(t)[:, None] * e2)
+            up[a:b] = normal
+        else:
+            up[a:b][got] = pu
+            up[a:b][~got] = mean_up
+        out[a:b] = new
+    return out
 
 
 def across(graph: StitchGraph, schedule: Schedule | None) -> np.ndarray:
     """Each stitch's position across the bed, in stitch widths: its scheduled needle (where
-    it was knitted) divided by its slice's gauge step; without a schedule its needle hint,
+    it was knitted), a half-gauge slice's shrunk by half about its centre; without a schedule its needle hint,
     each node shifted over the stitches it grows from (roots side by side)."""
     n = graph.n_stitches
     if schedule is not None:
@@ -108,9 +183,12 @@ def across(graph: StitchGraph, schedule: Schedule | None) -> np.ndarray:
 
         sl = schedule.slices
         act = np.nonzero(sl.state == ACTIVE)[0]
-        k = np.repeat(np.arange(sl.n_slices), sl.length)[act]
+        slice_of = np.repeat(np.arange(sl.n_slices), sl.length)
+        # a half-gauge slice shrunk about its centre, so it stays under the piece it joins
+        centre = np.bincount(slice_of, schedule.needle, sl.n_slices) / np.maximum(sl.length, 1)
+        k = slice_of[act]
         x = np.full(n, np.nan)
-        x[sl.stitch[act]] = schedule.needle[act] / schedule.step[k]
+        x[sl.stitch[act]] = centre[k] + (schedule.needle[act] - centre[k]) / schedule.step[k]
         if not np.any(np.isnan(x)):
             return x
         hint = _hinted(graph)
@@ -221,6 +299,144 @@ def _smacof(
     return x
 
 
-def render(input: ViewInput, fmt: str, *, three_d: bool = False) -> bytes:
+def faces(graph: StitchGraph) -> np.ndarray:
+    """(m, 4) stitch ids of the fabric's quads: a stitch, its next course neighbour, and the
+    stitches knitted into each (a triangle, last corner repeated, where the two meet at one
+    decrease). At an increase the corner is the child nearer the other corner's."""
+    n = graph.n_stitches
+    ids = np.arange(n, dtype=np.int64)
+    c = graph.cnext.astype(np.int64)
+    ok = c >= 0
+    s, c = ids[ok], c[ok]
+    wn = graph.wale_next.astype(np.int64)
+    b = _nearest_child(wn[c], s)
+    a = _nearest_child(wn[s], np.where(b >= 0, b, c))
+    ok = (a >= 0) & (b >= 0)
+    quads = np.column_stack([s[ok], c[ok], b[ok], a[ok]])
+    return quads
+
+
+def _nearest_child(kids: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """Of each row's (up to two) children, the one with the id nearest `near` (-1: none)."""
+    k0, k1 = kids[:, 0], kids[:, 1]
+    d0 = np.where(k0 >= 0, np.abs(k0 - near), np.iinfo(np.int64).max)
+    d1 = np.where(k1 >= 0, np.abs(k1 - near), np.iinfo(np.int64).max)
+    return np.where(d1 < d0, k1, k0)
+
+
+AZIMUTH = np.radians(-35.0)
+ELEVATION = np.radians(18.0)
+
+
+def project(pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Screen (x, y) and depth (towards the viewer) of 3-D positions: turned about the
+    vertical by AZIMUTH, then tilted by ELEVATION, seen from the front."""
+    p = pos - pos.mean(axis=0)
+    x, y, z = p[:, 0], p[:, 1], p[:, 2]
+    ca, sa = np.cos(AZIMUTH), np.sin(AZIMUTH)
+    xr = ca * x + sa * z
+    zr = -sa * x + ca * z
+    ce, se = np.cos(ELEVATION), np.sin(ELEVATION)
+    ys = ce * y - se * zr
+    depth = se * y + ce * zr
+    return np.column_stack([xr, ys]), depth
+
+
+def render(input: ViewInput, fmt: str, *, three_d: bool = False, dpi: float = 100) -> bytes:
     """The shape picture of `input` (see the module docstring) as SVG or PNG bytes."""
-    raise NotImplementedError
+    from matplotlib.collections import PolyCollection
+    from matplotlib.patches import Patch
+
+    from knitc.view import figure
+    from knitc.view.chart import graph_of
+
+    g, hz, loops = graph_of(input)
+    pos = layout(g, three_d, schedule=None if loops else input.schedule, exact_needles=loops)
+    q = faces(g)
+    palette = np.array([figure.rgb(c) for c in figure.NODE_COLOURS])
+    base = palette[g.node[q[:, 0]] % len(palette)] if q.size else np.zeros((0, 3))
+    if three_d:
+        xy, depth_of = project(pos)
+        p3 = pos[q]
+        normal = np.cross(p3[:, 1] - p3[:, 0], p3[:, 3] - p3[:, 0])
+        norm = np.linalg.norm(normal, axis=1)
+        normal = normal / np.maximum(norm, 1e-12)[:, None]
+        light = np.array([0.3, 0.6, 0.75])
+        light /= np.linalg.norm(light)
+        shade = 0.35 + 0.65 * np.abs(normal @ light)
+        colour = base * shade[:, None]
+        order = np.argsort(depth_of[q].mean(axis=1), kind="stable")
+    else:
+        xy = pos
+        back = g.side[q[:, 0]] == 1
+        colour = np.where(back[:, None], base * 0.6, base)
+        order = np.argsort(~back, kind="stable")  # the back faces first, under the front
+    verts = xy[q[order]]
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    span = np.maximum(hi - lo, 1.0)
+    aspect = float(span[1] / span[0])
+    width = 9.0
+    height = float(np.clip(width * aspect, 4.0, 14.0))
+    width = float(np.clip(height / aspect, 6.0, 14.0)) + 2.2
+    fig = figure.new_figure(width, height)
+    ax = fig.add_axes((0.02, 0.02, 1 - 2.4 / width, 0.92))
+    many = q.shape[0] > 6000
+    coll = PolyCollection(
+        cast(Any, verts),
+        facecolors=colour[order],
+        edgecolors=(0, 0, 0, 0.25) if not many else "face",
+        linewidths=0.2 if not many else 0.1,
+        rasterized=many and fmt == "svg",
+    )
+    ax.add_collection(coll)
+    if hz.size:
+        ax.scatter(
+            xy[hz, 0],
+            xy[hz, 1],
+            marker="o",
+            s=60,
+            facecolors="none",
+            edgecolors=figure.HAZARD_COLOUR,
+            linewidths=1.5,
+            zorder=5,
+        )
+    pad = 0.03 * span
+    ax.set_xlim(lo[0] - pad[0], hi[0] + pad[0])
+    ax.set_ylim(lo[1] - pad[1], hi[1] + pad[1])
+    ax.set_aspect("equal")
+    ax.set_axis_off()
+    handles: list[Any] = [
+        Patch(facecolor=figure.NODE_COLOURS[v % len(figure.NODE_COLOURS)], label=name)
+        for v, name in enumerate(g.node_names)
+        if np.any(g.node == v)
+    ]
+    if len(handles) > 24:
+        handles = handles[:23] + [Patch(facecolor="white", label=f"... {len(handles) - 23} more")]
+    if hz.size:
+        from matplotlib.lines import Line2D
+
+        handles.append(
+            Line2D(
+                [],
+                [],
+                marker="o",
+                linestyle="none",
+                markerfacecolor="none",
+                markeredgecolor=figure.HAZARD_COLOUR,
+                label=figure.hazard_label(input.findings),
+            )
+        )
+    fig.legend(
+        handles=handles,
+        loc="upper right",
+        bbox_to_anchor=(0.995, 0.94),
+        frameon=False,
+        title="yarns" if loops else "nodes",
+    )
+    name = input.path.rsplit("/", 1)[-1]
+    fig.suptitle(
+        f"{name}: shape ({'3-D' if three_d else '2-D'} force layout of {g.n_stitches} "
+        f"{'loops' if loops else 'stitches'})",
+        y=0.99,
+    )
+    return figure.save(fig, fmt, dpi=dpi)
