@@ -636,8 +636,10 @@
       const bits = chain.length ? [chain[0][0], chain[0][1] + " | " + chain[0][2].trim()] : [];
       if (w.op_text) bits.push("op " + w.ops[0] + ": " + w.op_text);
       const n = w.stitches.length, m = w.ops.length;
-      if (n) bits.push(n + (n === 1 ? " stitch" : " stitches"));
-      else if (m) bits.push(m + (m === 1 ? " op" : " ops"));
+      // a simulation finding is at its op; a diagnostic shows what its line made or wrote
+      const of = w.source === "simulation" ? "" : " of this line";
+      if (n) bits.push(n + (n === 1 ? " stitch" : " stitches") + of);
+      else if (m) bits.push(m + (m === 1 ? " op" : " ops") + of);
       where.textContent = bits.join("\n");
       li.appendChild(where);
       li.title = "show where it happens";
