@@ -1,7 +1,8 @@
-"""`make bench`: time and peak memory of knitc on every example, on a scaling series, and of
-the Knitout -> DAT converter on a 100k-operation program; and the machine time of every
-example and port: carriage passes (knitc's count, and the independent machine's when its venv
-is there), transfer passes, yarns, and DAT rows by kind, beside the original system's rows.
+"""`make bench`: time and peak memory of knitc on every example, on a scaling series, of
+the Knitout -> DAT converter on a 100k-operation program and of `knitc view` on the 100k
+tube; and the machine time of every example and port: carriage passes (knitc's count, and
+the independent machine's when its venv is there), transfer passes, yarns, and DAT rows by
+kind, beside the original system's rows.
 
 Each case runs in a fresh Python process (so peak RSS is its own), compiling to Knitout
 (or, where the back end does not support a design yet, as far as it goes). Results go to
@@ -69,6 +70,38 @@ print(json.dumps({"seconds": round(dt, 3), "parse_seconds": round(t1 - t0, 3),
                   "peak_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)}))
 """
 """`knitc k2dat` in process: read the Knitout, build the passes, encode the DAT."""
+
+VIEW_CHILD = r"""
+import json, resource, sys, time
+from knitc.view.source import load
+from knitc.view import bed, chart, shape
+t0 = time.perf_counter()
+got = load(sys.argv[1])
+inp = got.input
+out = {"load_seconds": round(time.perf_counter() - t0, 3)}
+views = [("bed", lambda: bed.render(inp, "png")),
+         ("bed_compact", lambda: bed.render(inp, "png", compact=True)),
+         ("chart", lambda: chart.render(inp, "png")),
+         ("shape", lambda: shape.render(inp, "png")),
+         ("shape_3d", lambda: shape.render(inp, "png", three_d=True))]
+for name, draw in views:
+    t = time.perf_counter()
+    data = draw()
+    out[name + "_seconds"] = round(time.perf_counter() - t, 3)
+    out[name + "_bytes"] = len(data)
+t = time.perf_counter()
+shape.layout(inp.graph, schedule=inp.schedule)
+out["layout_seconds"] = round(time.perf_counter() - t, 3)
+t = time.perf_counter()
+shape.layout(inp.graph, True, schedule=inp.schedule)
+out["layout_3d_seconds"] = round(time.perf_counter() - t, 3)
+out["seconds"] = round(time.perf_counter() - t0, 3)
+out["stitches"] = inp.graph.n_stitches
+out["peak_mb"] = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)
+print(json.dumps(out))
+"""
+"""`knitc view` in process on one design: compile and simulate it once (what every view
+starts from), then draw each static view as PNG, and time the force layout on its own."""
 
 K2DAT_ROWS = 500
 K2DAT_NEEDLES = 200
@@ -178,9 +211,13 @@ def main() -> int:
     k2dat["case"] = "k2dat-100k"
     k2dat["wall_seconds"] = round(time.perf_counter() - t0, 3)
     print(f"k2dat: {k2dat}", file=sys.stderr)
+    view = run_case(tmp / "tube-100k.knit", VIEW_CHILD)
+    view["case"] = "view-100k"
+    print(f"view: {view}", file=sys.stderr)
     doc = {"machine": {"python": platform.python_version(), "cpu": platform.processor() or
                        platform.machine()},
-           "date": time.strftime("%Y-%m-%d"), "results": results, "k2dat": k2dat}
+           "date": time.strftime("%Y-%m-%d"), "results": results, "k2dat": k2dat,
+           "view": view}
     (REPO / "bench" / "results.json").write_text(json.dumps(doc, indent=1) + "\n")
     print("| case | stitches | stage reached | knitc seconds | peak MB |")
     print("|---|---:|---|---:|---:|")
@@ -211,6 +248,17 @@ def main() -> int:
     else:
         print(f"| k2dat-100k | {k2dat['ops']} | {k2dat['dat_bytes']} | {k2dat['seconds']} | "
               f"{k2dat['peak_mb']} |")
+    print()
+    print("| knitc view | stitches | compile + simulate | bed | bed --compact | chart | shape "
+          "| shape --3d | layout (2-D; 3-D) | peak MB |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---|---:|")
+    if "error" in view:
+        print(f"| view-100k | | error: {view['error']} | | | | | | | |")
+    else:
+        print(f"| view-100k | {view['stitches']} | {view['load_seconds']} | "
+              f"{view['bed_seconds']} | {view['bed_compact_seconds']} | {view['chart_seconds']} | "
+              f"{view['shape_seconds']} | {view['shape_3d_seconds']} | "
+              f"{view['layout_seconds']}; {view['layout_3d_seconds']} | {view['peak_mb']} |")
     return 0
 
 

@@ -40,7 +40,9 @@ def render_file(
         diags = Diagnostics()
         diags.error(
             "E930",
-            f"--{view} writes {' or '.join(FORMATS[view])} files, not `{ext or path}`",
+            f"--{view} writes {' or '.join(FORMATS[view])} files, not `{ext}`"
+            if ext
+            else f"--{view} writes {' or '.join(FORMATS[view])} files; the output has no extension",
             None,
             hint=f"name the output like `out{FORMATS[view][0]}`",
         )

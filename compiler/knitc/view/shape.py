@@ -331,7 +331,7 @@ ELEVATION = np.radians(18.0)
 def project(pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Screen (x, y) and depth (towards the viewer) of 3-D positions: turned about the
     vertical by AZIMUTH, then tilted by ELEVATION, seen from the front."""
-    p = pos - pos.mean(axis=0)
+    p = pos - (pos.mean(axis=0) if pos.shape[0] else 0.0)
     x, y, z = p[:, 0], p[:, 1], p[:, 2]
     ca, sa = np.cos(AZIMUTH), np.sin(AZIMUTH)
     xr = ca * x + sa * z
@@ -372,7 +372,10 @@ def render(input: ViewInput, fmt: str, *, three_d: bool = False, dpi: float = 10
         colour = np.where(back[:, None], base * 0.6, base)
         order = np.argsort(~back, kind="stable")  # the back faces first, under the front
     verts = xy[q[order]]
-    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    if xy.shape[0]:
+        lo, hi = xy.min(axis=0), xy.max(axis=0)
+    else:  # nothing knitted: an empty picture with its title
+        lo, hi = np.zeros(2), np.ones(2)
     span = np.maximum(hi - lo, 1.0)
     aspect = float(span[1] / span[0])
     width = 9.0
