@@ -215,6 +215,15 @@ def _hazard_cells(b: Bed, input: ViewInput) -> tuple[np.ndarray, np.ndarray, np.
 
 def render(input: ViewInput, fmt: str, *, compact: bool = False, dpi: float = 100) -> bytes:
     """The time-needle bed of `input` as SVG or PNG bytes (see the module docstring)."""
+    fig, _, _ = draw(input, compact=compact, fmt=fmt)
+    return figure.save(fig, fmt, dpi=dpi)
+
+
+def draw(
+    input: ViewInput, *, compact: bool = False, fmt: str = "png"
+) -> tuple[Any, Bed, list[Any]]:
+    """The figure of the bed view, its grid, and its front and back bed axes (the tests
+    find a cell's pixel through their data transform)."""
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch
 
@@ -341,4 +350,4 @@ def render(input: ViewInput, fmt: str, *, compact: bool = False, dpi: float = 10
         f"{len(input.program.ops)} operations",
         y=1 - 0.05 / height,
     )
-    return figure.save(fig, fmt, dpi=dpi)
+    return fig, b, axes

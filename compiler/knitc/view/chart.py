@@ -42,6 +42,8 @@ LEFT_PX, RIGHT_PX, TOP_PX, BOTTOM_PX = 16, 200, 44, 16
 """Margins around the raster: the legend goes on the right, the title on top."""
 MIN_HEIGHT_PX = 380
 """Room for the legend of all 17 instructions."""
+MIN_WIDTH_PX = 560
+"""Room for the title."""
 
 
 @dataclass
@@ -69,7 +71,7 @@ class Chart:
 
     @property
     def width_px(self) -> int:
-        return LEFT_PX + self.code.shape[1] * self.cell + RIGHT_PX
+        return max(LEFT_PX + self.code.shape[1] * self.cell + RIGHT_PX, MIN_WIDTH_PX)
 
     @property
     def height_px(self) -> int:
@@ -303,10 +305,11 @@ def render(input: ViewInput, fmt: str) -> bytes:
         title="instructions",
     )
     name = input.path.rsplit("/", 1)[-1]
-    what = "yarns, from the program's loops" if loops else "nodes"
+    k = len(ch.pieces)
+    what = ("yarn" if loops else "node") + ("" if k == 1 else "s")
     fig.suptitle(
-        f"{name}: stitch charts of {len(ch.pieces)} {what}, {g.n_stitches} stitches "
-        "(course up, wale across)",
+        f"{name}: stitch charts of {k} {what}"
+        f"{' (the loops its program makes)' if loops else ''}, {g.n_stitches} stitches",
         y=1 - 6 / H,
         va="top",
     )

@@ -344,6 +344,17 @@ def project(pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def render(input: ViewInput, fmt: str, *, three_d: bool = False, dpi: float = 100) -> bytes:
     """The shape picture of `input` (see the module docstring) as SVG or PNG bytes."""
+    from knitc.view import figure
+
+    fig, _, _ = draw(input, three_d=three_d, fmt=fmt)
+    return figure.save(fig, fmt, dpi=dpi)
+
+
+def draw(
+    input: ViewInput, *, three_d: bool = False, fmt: str = "png"
+) -> tuple[Any, Any, np.ndarray]:
+    """The figure of the shape view, its axes and every stitch's drawn (x, y) there (the
+    tests find a stitch's pixel through the axes' data transform)."""
     from matplotlib.collections import PolyCollection
     from matplotlib.patches import Patch
 
@@ -442,4 +453,4 @@ def render(input: ViewInput, fmt: str, *, three_d: bool = False, dpi: float = 10
         f"{'loops' if loops else 'stitches'})",
         y=0.99,
     )
-    return figure.save(fig, fmt, dpi=dpi)
+    return fig, ax, xy
