@@ -390,8 +390,8 @@ def draw(
     span = np.maximum(hi - lo, 1.0)
     aspect = float(span[1] / span[0])
     width = 9.0
-    height = float(np.clip(width * aspect, 4.0, 14.0))
-    width = float(np.clip(height / aspect, 6.0, 14.0)) + 2.2
+    height = float(np.clip(width * aspect, 4.0, 10.0))
+    width = float(np.clip(height / aspect, 6.0, 11.0)) + 2.2
     fig = figure.new_figure(width, height)
     ax = fig.add_axes((0.02, 0.02, 1 - 2.4 / width, 0.92))
     many = q.shape[0] > 6000
