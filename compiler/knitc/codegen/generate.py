@@ -526,7 +526,7 @@ def _carry(gen: _Gen, chunk: np.ndarray) -> None:
             lifted.append((t, _free_facing(gen, home[t])))
             bed.xfer(home[t], lifted[-1][1], t)
     for round_moves in rounds:
-        for x, here, dst in sorted(round_moves, key=lambda m: m[2][1] - m[1][1]):
+        for x, _here, dst in sorted(round_moves, key=lambda m: m[2][1] - m[1][1]):
             if x in waiting:
                 bed.set_rack(racking_for(needle_of(waiting[x]), needle_of(dst)))
                 bed.xfer(waiting[x], dst, x)
