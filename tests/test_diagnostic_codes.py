@@ -21,26 +21,16 @@ WITHOUT_GOLDEN_CASE: dict[str, str] = {
     "E317": "the resolver reports an assignment to a context name (`needle = ...`) as E222 "
     "before any action runs, so the interpreter's own check cannot fire; "
     "tests/test_interp.py::test_constants_are_readable_not_assignable",
-    # knitc's simulation of its own machine program (codegen/simulate.py) runs only on what
-    # code generation made, which is clean by construction; `k2dat` does not simulate.
-    "E801": "simulator, only a code-generation bug: tests/test_simulate.py::test_misaligned_xfer",
-    "E802": "simulator, only a code-generation bug: tests/test_simulate.py::test_carrier_not_in",
-    "E803": "simulator, only a code-generation bug: "
-    "tests/test_simulate.py::test_loops_and_carriers_left",
-    "E804": "simulator, only a code-generation bug: "
-    "tests/test_simulate.py::test_loops_and_carriers_left",
-    "E805": "simulator, only a code-generation bug: tests/test_simulate.py::test_hook_rules",
-    "E806": "simulator, only a code-generation bug (E601/E722 stop designs first): "
-    "tests/test_simulate.py::test_needle_range_and_sliders",
-    "E807": "simulator, only a code-generation bug (E721/E723 stop actions first): "
-    "tests/test_simulate.py::test_racking",
-    "E808": "simulator, only a code-generation bug: "
-    "tests/test_simulate.py::test_needle_range_and_sliders",
-    "E809": "simulator, only a code-generation bug: tests/test_simulate.py::test_carrier_state",
-    "E810": "simulator, a malformed op (the machine verifier fails first, an internal error): "
+    # knitc's simulation (codegen/simulate.py) runs on what code generation made, which is
+    # clean by construction, and, through `knitc lint`, on any Knitout file: the cases of
+    # tests/filecheck/lint/ cover its codes but these, which the Knitout reader stops first.
+    "E801": "simulator: `knitc lint` reports a misaligned transfer as the reader's E916 "
+    "(tests/filecheck/lint/lint_misaligned_xfer.k); tests/test_simulate.py::test_misaligned_xfer",
+    "E802": "simulator: `knitc lint` reports a carrier used while out as the reader's E915 "
+    "(tests/filecheck/lint/lint_carrier_not_in.k); tests/test_simulate.py::test_carrier_not_in",
+    "E810": "simulator, a malformed op (the machine verifier fails first, an internal error; "
+    "the Knitout reader makes only well-formed ops): "
     "tests/test_simulate.py::test_malformed_ops_are_reported_and_skipped",
-    "W802": "simulator: code generation (actions too) makes a knit on an empty needle a tuck; "
-    "tests/test_simulate.py::test_knit_on_empty",
 }
 """Codes no input can produce through the CLI, each with the reason (and where it is tested
 instead)."""

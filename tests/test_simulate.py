@@ -6,6 +6,7 @@ independent oracle on valid and broken programs (the oracle stays the judge).
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import pytest
 
@@ -234,6 +235,154 @@ def test_float_follows_a_transferred_loop():
     )
     assert sim(text, max_float=20) == []
     assert "floats 20 needles from f5" in sim(text)[0].message
+
+
+# ---- the hazards a technician checks for --------------------------------------------------
+
+
+def row(d: int, needles, carrier: int = 3) -> str:
+    """One row of knits in direction `d` over `needles` (taken in that direction)."""
+    ks = sorted(needles, reverse=d < 0)
+    return "".join(f"knit {'+' if d > 0 else '-'} f{k} {carrier}\n" for k in ks)
+
+
+def with_profile(text: str, **limits: int) -> MachineProgram:
+    p = read_knitout(text)
+    return MachineProgram(replace(p.machine, **limits), list(p.ops))
+
+
+def test_thresholds_come_from_the_machine_profile():
+    text = CAST_ON + "tuck + f3 3\ntuck - f3 3\n" + FINISH
+    assert kinds(simulate(read_knitout(text))) == ["too_many_loops"]
+    assert simulate(with_profile(text, max_loops=3)) == []
+    assert simulate(with_profile(text, max_loops=3), max_loops=2) != []  # a caller's wins
+    far = CAST_ON + "tuck + f14 3\n" + FINISH + "drop f14\n"
+    assert simulate(with_profile(far, max_float=13)) == []
+
+
+def test_the_hook_blocks_the_bed_right_of_the_first_loop():
+    # CAST_ON's first tuck is on f6 (leftward): the hook is parked in the slot of f7
+    early = CAST_ON.replace("releasehook 3\n", "tuck + f7 3\nreleasehook 3\n")
+    [f] = sim(early + FINISH + "drop f7\n")
+    assert f.kind == "hook" and f.is_error and f.op == 13
+    assert f.message.startswith("`tuck + f7 3` uses f7, at or right of the inserting hook")
+    assert sim(CAST_ON + "tuck + f7 3\n" + FINISH + "drop f7\n") == []  # once released
+    # any carrier, and a miss too; once per hook (the first offending op)
+    other = CAST_ON.replace(
+        "releasehook 3\n", "in 4\nknit + f5 4\nmiss + f8 4\ntuck + f9 4\nreleasehook 3\n"
+    )
+    fs = sim(other + "out 4\n" + FINISH + "drop f9\n")
+    assert kinds(fs) == ["hook"] and "`miss + f8 4` uses f8" in fs[0].message
+    # a back needle is where the racking puts it: b9 at racking -3 sits in slot 6
+    racked = CAST_ON.replace("releasehook 3\n", "rack -3\ntuck + b9 3\nrack 0\nreleasehook 3\n")
+    assert sim(racked + FINISH + "drop b9\n") == []
+    racked = racked.replace("rack -3", "rack -2")
+    assert kinds(sim(racked + FINISH + "drop b9\n")) == ["hook"]
+
+
+def test_carriers_per_op():
+    text = CAST_ON + "in 4\nin 5\n" + row(1, range(1, 7), 0).replace(" 0\n", " 3 4 5\n")
+    fs = sim(text + "out 4\nout 5\n" + FINISH)
+    # once per carrier set, and the op still counts: carriers 4 and 5 did stitch
+    assert kinds(fs) == ["carriers_per_op"] and fs[0].is_error and fs[0].code == "E811"
+    assert fs[0].message == (
+        "`knit + f1 3 4 5` uses 3 carriers in one op; the machine takes at most 2 in a pass"
+    )
+
+
+def slipped(passes: int) -> str:
+    """f3 slipped (its neighbours knitted, it not) in `passes` rows, then knitted."""
+    rows = [row(1 if r % 2 == 0 else -1, [1, 2, 4, 5, 6]) for r in range(passes)]
+    return CAST_ON + "".join(rows) + row(1 if passes % 2 == 0 else -1, range(1, 7)) + FINISH
+
+
+def test_long_miss():
+    assert sim(slipped(6)) == []
+    [f] = sim(slipped(7))
+    assert f.kind == "long_miss" and f.code == "W804" and not f.is_error
+    assert f.message.startswith("`knit - f3 3` knits through the loop on f3, which the yarn")
+    assert "in 7 passes in a row (more than 6)" in f.message
+    assert simulate(with_profile(slipped(7), max_misses=7)) == []
+    # short rows hold their loops outside the rows: the yarn never passes them
+    short = "".join(row(1 if r % 2 == 0 else -1, [1, 2, 3, 4]) for r in range(10))
+    assert sim(CAST_ON + short + row(1, range(1, 7)) + FINISH) == []
+
+
+def lace_move(by: int) -> str:
+    """The loop of f2 moved `by` needles right (onto f(2+by)), then a yarn-over on f2."""
+    xfer = f"xfer f2 b2\nrack {by}\nxfer b2 f{2 + by}\nrack 0\n"
+    back = row(-1, range(1, 7)).replace("knit - f2", "tuck - f2")
+    return CAST_ON + row(1, range(1, 7)) + xfer + back + FINISH
+
+
+def test_stretch():
+    assert sim(lace_move(3)) == []  # f1's neighbour ends 4 needles away, 3 more than knitted
+    [f] = sim(lace_move(4))
+    assert f.kind == "stretch" and f.code == "W805" and str(f.op) and not f.is_error
+    assert f.message.startswith("`xfer b2 f6` leaves the loop on f6 5 needles from its yarn")
+    assert simulate(with_profile(lace_move(4), max_stretch=4)) == []
+    # a block moved together keeps its yarn: the whole swatch shifted by 4 is not stretched
+    shift = "".join(f"xfer f{k} b{k}\n" for k in range(1, 7)) + "rack 4\n"
+    shift += "".join(f"xfer b{k} f{k + 4}\n" for k in range(1, 7)) + "rack 0\n"
+    end = "outhook 3\n" + "".join(f"drop f{k}\n" for k in range(5, 11))
+    assert sim(CAST_ON + shift + end) == []
+
+
+def test_stretch_is_counted_in_stitch_widths():
+    # half gauge: loops two needles apart, as long as two needles' worth of yarn; a move of
+    # f4 by 8 needles (two transfers at racking 4) is 4 stitch widths, by 4 only 2
+    evens = range(2, 13, 2)
+    start = "inhook 3\n" + "".join(f"tuck - f{k} 3\n" for k in evens[::-1])
+    start += row(1, evens) + "releasehook 3\n"
+    step = "xfer f{a} b{a}\nrack 4\nxfer b{a} f{b}\nrack 0\n"
+    end = row(-1, evens).replace("knit - f4", "tuck - f4") + "outhook 3\n"
+    end += "".join(f"drop f{k}\n" for k in evens)
+    assert sim(start + step.format(a=4, b=8) + end) == []
+    fs = sim(start + step.format(a=4, b=8) + step.format(a=8, b=12) + end)
+    [f] = [f for f in fs if f.kind == "stretch"]  # (f8's own loop goes along: W801, W802)
+    assert "`xfer b8 f12` leaves the loop on f12 10 needles from its yarn neighbour on f2" in (
+        f.message
+    )
+    assert f.message.endswith(
+        "8 more than they were knitted apart (more than 3 stitch widths of 2 needles): "
+        "the yarn between them is stretched"
+    )
+
+
+def test_reverse_stitch_with_the_facing_needle_occupied():
+    purl = "xfer f3 b3\nknit - b3 3\nxfer b3 f3\n"
+    assert sim(CAST_ON + purl + FINISH) == []  # b3 was empty: a plain reverse stitch
+    occupied = CAST_ON + "tuck + b3 3\n" + purl + FINISH
+    [f] = sim(occupied)
+    assert f.kind == "reverse_occupied" and f.code == "W806" and not f.is_error
+    assert str(read_knitout(occupied).ops[f.op]) == "xfer b3 f3"
+    assert "`knit - b3 3` knitted b3's own loop together with the one moved from f3" in (f.message)
+    # a decrease onto the facing needle that stays there is no reverse stitch
+    assert sim(CAST_ON + "tuck + b3 3\nxfer f3 b3\nknit - b3 3\n" + FINISH + "drop b3\n") == []
+    # nor a lace move through the other bed, moved on after the knit: the loop that came
+    # from b2 was knitted on the front (f2), so b2 had no loop of its own to lose
+    lace = "xfer f2 b2\nrack -1\nxfer b2 f1\nknit - f1 3\nxfer f1 b2\nrack 0\nxfer b2 f2\n"
+    assert kinds(sim(CAST_ON + lace + FINISH)) == []
+
+
+def test_loose_yarn():
+    loose = CAST_ON.replace("inhook 3", "in 3").replace("releasehook 3\n", "")
+    [f] = sim(loose + FINISH)
+    assert f.kind == "loose_yarn" and f.code == "W807" and f.op == 1
+    assert f.message.startswith("carrier 3 came in with `in`, not `inhook`")
+    # a yarn that starts on loops may come in loose
+    assert sim(CAST_ON + "in 4\n" + row(1, range(1, 7), 4) + "out 4\n" + FINISH) == []
+
+
+def test_cast_on_knitted_before_the_carrier_turns():
+    tucks = "".join(f"tuck - f{k} 3\n" for k in range(6, 0, -1))
+    same_way = "inhook 3\n" + tucks + row(-1, range(1, 7)) + "releasehook 3\n" + FINISH
+    [f] = sim(same_way)  # once for the pass
+    assert f.kind == "cast_on_knit" and f.code == "W808" and f.op == 7
+    assert f.message.startswith("`knit - f6 3` knits the cast-on loop on f6 before carrier 3")
+    back = "inhook 3\n" + tucks + row(1, range(1, 7)) + "releasehook 3\n" + FINISH
+    assert sim(back) == []  # knitted back the other way
+    assert sim(CAST_ON + FINISH) == []  # the interlock
 
 
 def test_loops_and_carriers_left():

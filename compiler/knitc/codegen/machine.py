@@ -136,6 +136,23 @@ class Machine:
     max_carriers_per_op: int = 2
     """The Shima backend encodes one or two carriers per pass (research §1.7, 12)."""
 
+    # The hazard thresholds of knitc's simulation (`knitc.codegen.simulate`): what the
+    # machine knits reliably, so that `knitc check` and `knitc lint` warn past it. They are
+    # not written into the Knitout header (nothing downstream reads them) and so not into
+    # `to_json` either.
+    max_loops: int = 2
+    """Loops a needle may hold (a decrease stacks two); a third, whether tucked or
+    transferred onto it, is pulled through with them by the next knit (W801)."""
+    max_float: int = 12
+    """Needles a carrier's yarn may float between consecutive loops (W803)."""
+    max_misses: int = 6
+    """Passes in a row the yarn may pass a held loop without knitting it (a slip stitch
+    over a few courses) before knitting through it again strains it (W804)."""
+    max_stretch: int = 3
+    """Stitch widths a transfer may move a loop further from a yarn neighbour on its bed
+    than they were knitted apart (a width is that distance: a needle in full gauge, two in
+    half gauge); a 3-over-3 cable's outer loops move 3 (W805)."""
+
     @property
     def carrier_names(self) -> tuple[int, ...]:
         return tuple(range(1, self.carriers + 1))
@@ -635,10 +652,13 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def op_problems(op: Op, machine: Machine) -> list[str]:
+def op_problems(op: Op, machine: Machine, *, carrier_limit: bool = True) -> list[str]:
     """What is structurally wrong with one op (empty = well formed). Machine limits other
     than the carrier names (needle range, racking limit, alignment, carrier state, loops) are
-    the simulator's findings (`knitc.codegen.simulate`), not structure."""
+    the simulator's findings (`knitc.codegen.simulate`), not structure. The carriers per op
+    are structure for code generation (it never writes more than the machine takes), but
+    a Knitout file from another tool may name three, so the simulator passes
+    `carrier_limit=False` and reports them as a finding of their own."""
     k = op.kind
     if k not in KINDS:
         return [f"unknown kind {k!r}"]
@@ -674,7 +694,7 @@ def op_problems(op: Op, machine: Machine) -> list[str]:
         for c in op.carriers
     ):
         problems.append(f"carriers {list(op.carriers)} outside 1..{machine.carriers}")
-    if k in DIRECTED_KINDS and len(op.carriers) > machine.max_carriers_per_op:
+    if carrier_limit and k in DIRECTED_KINDS and len(op.carriers) > machine.max_carriers_per_op:
         problems.append(
             f"{len(op.carriers)} carriers in one op (at most {machine.max_carriers_per_op})"
         )

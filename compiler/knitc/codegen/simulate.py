@@ -1,15 +1,19 @@
 """knitc's own machine simulation: a fast check of a `MachineProgram` that points at DSL lines.
 
 One pass over the ops with the machine state a V-bed needs for safety: loops per needle as
-integer counts (not loop identities), carriers out / brought in / in action, the inserting
-hook, the racking, and for each carrier the needle of the last loop it made (followed when
-that loop is transferred, as Knitout's carrier motion rule says). Findings carry the op
-index, its stitch and its source span, so they become diagnostics at the DSL line that made
-the op (`add_to_diagnostics`).
+integer counts, carriers out / brought in / in action, the inserting hook and where it is
+parked, the racking, and for each carrier the needle of the last loop it made (followed when
+that loop is transferred, as Knitout's carrier motion rule says). For the yarn-stretch rule
+it also keeps each loop's identity, needle and yarn neighbours (lists indexed by a loop
+number, cheap enough to keep on). Findings carry the op index, its stitch and its source
+span, so they become diagnostics at the line that made the op (`add_to_diagnostics`): a
+DSL line for `knitc check`, a Knitout line for `knitc lint`.
 
 This is not the judge: the independent oracle (tests/oracle.py) is. The rules follow what
 the oracle and the Shima DAT converter enforce (shared/research/knitout-and-dat.md §1.7),
-and where the two differ, the stricter one:
+and where the two differ, the stricter one; the hazards are what a knitting technician
+checks a program for, with the thresholds of the machine profile (`Machine.max_loops`,
+`max_float`, `max_misses`, `max_stretch`):
 
 errors
   E801 misaligned_xfer   xfer/split between needles that do not face each other at the racking
@@ -17,18 +21,35 @@ errors
   E803 loops_left        loops still on needles at the end
   E804 carriers_left     carriers still in action at the end
   E805 hook              inhook while the hook holds yarn, first pass after inhook not
-                         leftward, releasehook of other carriers or before a stitch, out of a
-                         carrier still on the hook, hook never released, more than one
-                         carrier in an inhook/releasehook/outhook
+                         leftward, a stitch at or right of the parked hook (it sits just
+                         right of the hooked carrier's first loop until releasehook),
+                         releasehook of other carriers or before a stitch, out of a carrier
+                         still on the hook, hook never released, more than one carrier in
+                         an inhook/releasehook/outhook
   E806 needle_range      a needle outside 0 .. machine.needles - 1
   E807 racking           |racking| above the machine's limit, or a fraction other than .25
   E808 needle_use        knit/tuck on a slider, split from a slider, slider to slider
   E809 carrier_state     in/inhook of a carrier already in, out of one that never stitched
   E810 malformed         an op that is not well formed (an internal error of code generation)
+  E811 carriers_per_op   more carriers in one op than the machine takes in a pass
 warnings
-  W801 too_many_loops    an op leaves more than `max_loops` loops on a needle
+  W801 too_many_loops    an op leaves more than `max_loops` loops on a needle: a tuck or a
+                         transfer onto a needle that holds a stack, which the next knit
+                         pulls through all at once
   W802 knit_on_empty     knit on a needle holding no loop (a tuck there is a cast-on)
   W803 long_float        a carrier's consecutive loops more than `max_float` needles apart
+  W804 long_miss         a knit through a loop the yarn passed over (missed) in more than
+                         `max_misses` passes in a row: the held loop is drawn long
+  W805 stretch           a transfer that leaves a loop more than `max_stretch` stitch widths
+                         further from a yarn neighbour on its bed than they were knitted
+                         apart (a width is that distance: 1 needle full gauge, 2 half)
+  W806 reverse_occupied  a reverse stitch (loop to the facing needle, knit, back) whose
+                         facing needle held a loop of its own bed: the knit takes it and the
+                         transfer back moves it off its bed
+  W807 loose_yarn        a carrier brought in with `in` (no inserting hook) whose first
+                         loop lands on an empty needle: nothing holds the yarn end
+  W808 cast_on_knit      a knit through a cast-on loop (a tuck onto an empty needle) before
+                         its carrier has turned: no course the other way holds it yet
 
 The oracle's own hazard limits are 4 loops (`max_loops=3`) and floats over 20 needles
 (`max_float=20`); knitc's defaults are stricter.
@@ -64,9 +85,15 @@ CODES: dict[str, str] = {
     "needle_use": "E808",
     "carrier_state": "E809",
     "malformed": "E810",
+    "carriers_per_op": "E811",
     "too_many_loops": "W801",
     "knit_on_empty": "W802",
     "long_float": "W803",
+    "long_miss": "W804",
+    "stretch": "W805",
+    "reverse_occupied": "W806",
+    "loose_yarn": "W807",
+    "cast_on_knit": "W808",
 }
 """Finding kind -> diagnostic code (E = error, W = warning)."""
 
@@ -112,28 +139,47 @@ class Finding:
 # carrier states
 _OUT, _PENDING, _ACTIVE = 0, 1, 2
 
+_PassKey = tuple[int, tuple[int, ...], float]
+"""What a knitting pass keeps (direction, carriers, racking): a loop op with another key,
+or one that goes back against the direction, starts a new pass."""
+
 
 class Simulator:
     """The simulation state; `run()` goes through the program once and returns findings.
 
     After `run()`, `loops` (needle -> loop count, needles with loops only), `active`
     (carriers in, sorted), `hook` (carriers on the hook) and `racking` describe
-    the machine at the end.
+    the machine at the end. `max_loops` and `max_float` default to the machine profile's.
+
+    `placed`: the needle numbers are where the program's `;;Position:` puts them, as the
+    Shima converter does (research §2.2): with `Keep` they are the bed's own, 0 ..
+    needles - 1; otherwise the design is moved onto the bed, so only its width must fit
+    (a program whose needles run below 0 or past the end starts at its leftmost needle).
+    Without it (code generation, which places every needle itself) they are always the
+    bed's own.
     """
 
     def __init__(
         self,
         prog: MachineProgram,
         *,
-        max_loops: int = 2,
-        max_float: int = 12,
+        max_loops: int | None = None,
+        max_float: int | None = None,
         check_end: bool = True,
         limit_per_kind: int = 100,
+        placed: bool = False,
     ) -> None:
         self.prog = prog
         self.machine = prog.machine
-        self.max_loops = max_loops
-        self.max_float = max_float
+        self.bed_lo = 0  # the needle number at the bed's left end
+        if placed and prog.position != "Keep":
+            used = [n.index for op in prog.ops for n in (op.needle, op.needle2) if n is not None]
+            if used and (min(used) < 0 or max(used) >= self.machine.needles):
+                self.bed_lo = min(used)
+        self.max_loops = self.machine.max_loops if max_loops is None else max_loops
+        self.max_float = self.machine.max_float if max_float is None else max_float
+        self.max_misses = self.machine.max_misses
+        self.max_stretch = self.machine.max_stretch
         self.check_end = check_end
         self.limit_per_kind = limit_per_kind
         self.loops: dict[Needle, int] = {}
@@ -147,10 +193,51 @@ class Simulator:
         self.hook_op = -1
         self.hook_stitched = False
         self.hook_dir_checked = False
+        # the hook is parked just right of the hooked carrier's first loop: this slot and
+        # every one right of it are blocked until releasehook (None: no loop yet)
+        self.hook_slot: int | None = None
+        self.hook_first: Needle | None = None
+        self.hook_block_reported = False
+        self.off_bed: set[Needle] = set()  # needles reported outside the bed
+        self.too_many_carriers: set[tuple[int, ...]] = set()  # carrier sets reported (E811)
         self.racking: float = 0
         self.findings: list[Finding] = []
         self._counts: Counter[str] = Counter()
         self._i = -1
+        # W807: carriers brought in with `in` that have not made a loop yet
+        self.loose: set[int] = set()
+        # W804: consecutive passes that went over each needle's loops without knitting it
+        self.missed: dict[Needle, int] = {}
+        self._pass_key: _PassKey | None = None
+        self._pass_pos = 0.0
+        self._pass_span: dict[bool, list[int]] = {}  # front? -> [lowest, highest] hook index
+        # front? -> the hook indices the pass formed loops on
+        self._pass_touched: dict[bool, set[int]] = {True: set(), False: set()}
+        # W808: each carrier's passes (a new one when it turns), and the cast-on loops
+        self._passes = 0
+        self.carrier_dir: dict[int, int] = {}
+        self.carrier_pass: dict[int, int] = {}
+        self.cast_on: dict[Needle, tuple[int, int]] = {}  # tucked on empty: (carrier, pass)
+        self.cast_on_live: set[Needle] = set()  # ... and that loop is still the only one
+        self.cast_on_reported: set[tuple[int, int]] = set()
+        # W806: facing needles a transfer stacked onto, then knitted
+        self.rev_stacked: dict[Needle, Needle] = {}  # facing needle -> where the loop came from
+        self.rev_knit: dict[Needle, tuple[Needle, int]] = {}  # ... then knitted: (from, op)
+        # W805: loop identities (a number per loop-forming op), where each is (None: knitted
+        # off or dropped), its yarn neighbours before and after it with the needles between
+        # them when the later one was made (on one bed; -1: none), as flat lists (a program
+        # of a million stitches keeps a million loops), and the loops a transfer pass moved
+        self.loop_at: list[Needle | None] = []
+        self.loop_front: list[bool] = []  # knitted on the front bed (W806)
+        self.loop_prev: list[int] = []
+        self.loop_prev_d: list[int] = []
+        self.loop_next: list[int] = []
+        self.loop_next_d: list[int] = []
+        self.loop_more: dict[int, list[tuple[int, int]]] = {}  # plated loops' other yarns
+        self.on_needle: dict[Needle, list[int]] = {}
+        self.last_loop: dict[int, int] = {}  # carrier -> its last loop
+        self._moved: dict[int, int] = {}  # loop -> the op of this transfer pass that moved it
+        self._xfer_racking: float | None = None
 
     # -- reporting ----------------------------------------------------------------------------
 
@@ -194,16 +281,24 @@ class Simulator:
             "amiss": self._needle_only,
             "rack": self._rack,
         }
+        passive = ("comment", "stitch", "stitch_number", "speed", "presser")
         for i, op in enumerate(self.prog.ops):
             self._i = i
-            problems = op_problems(op, self.machine)
+            problems = op_problems(op, self.machine, carrier_limit=False)
             if problems:
                 self._report("malformed", f"`{op.kind}` op: " + "; ".join(problems))
                 continue
-            h = handlers.get(op.kind)
+            k = op.kind
+            if k not in passive:
+                if k != "xfer" and self._moved:
+                    self._end_xfer_pass()
+                if k not in ("knit", "tuck", "split", "miss"):
+                    self._end_pass()
+            h = handlers.get(k)
             if h is not None:
                 h(op)
         self._i = -1
+        self._end_xfer_pass()
         if self.check_end:
             self._end()
         for kind, n in self._counts.items():
@@ -219,13 +314,25 @@ class Simulator:
     # -- needles ------------------------------------------------------------------------------
 
     def _in_range(self, op: Op) -> bool:
+        """Whether the op's needles are on the bed; each needle off it is reported at its
+        first use only (a program placed off the bed would repeat it on every line)."""
         ok = True
+        lo = self.bed_lo
+        hi = lo + self.machine.needles - 1
         for n in (op.needle, op.needle2):
-            if n is not None and not 0 <= n.index < self.machine.needles:
-                self._report(
-                    "needle_range",
-                    f"needle {n} is outside the bed (0..{self.machine.needles - 1}) in `{op}`",
-                )
+            if n is not None and not lo <= n.index <= hi:
+                if n not in self.off_bed:
+                    self.off_bed.add(n)
+                    where = (
+                        ""
+                        if lo == 0
+                        else f", where `;;Position: {self.prog.position}` puts the "
+                        f"program's {self.machine.needles} needles from its leftmost"
+                    )
+                    self._report(
+                        "needle_range",
+                        f"needle {n} is outside the bed ({lo}..{hi}{where}) in `{op}`",
+                    )
                 ok = False
         return ok
 
@@ -249,7 +356,23 @@ class Simulator:
     def _drop(self, op: Op) -> None:
         if self._in_range(op):
             assert op.needle is not None
-            self._set(op.needle, 0)
+            n = op.needle
+            self._set(n, 0)
+            self._forget(n)
+            for x in self.on_needle.pop(n, ()):
+                self.loop_at[x] = None
+
+    def _forget(self, n: Needle) -> None:
+        """What the hazard rules remember about the loops of `n`, once they leave it (each
+        looked up only when it holds anything: hashing a Needle is what the run costs)."""
+        if self.missed:
+            self.missed.pop(n, None)
+        if self.cast_on_live:
+            self.cast_on_live.discard(n)
+        if self.rev_stacked:
+            self.rev_stacked.pop(n, None)
+        if self.rev_knit:
+            self.rev_knit.pop(n, None)
 
     def _check_transfer(self, op: Op) -> bool:
         a, b = op.needle, op.needle2
@@ -278,16 +401,185 @@ class Simulator:
             for c, n in self.anchor.items():
                 if n == a:
                     self.anchor[c] = b
+            if self.missed:
+                m = self.missed.pop(a, 0)
+                if m or b in self.missed:
+                    self.missed[b] = max(m, self.missed.get(b, 0))
+            if self.cast_on_live:
+                self.cast_on_live.discard(a)
+                self.cast_on_live.discard(b)
+        ids = self.on_needle.pop(a, None)
+        if ids:
+            for x in ids:
+                self.loop_at[x] = b
+                self._moved[x] = self._i
+            self.on_needle.setdefault(b, []).extend(ids)
 
     def _xfer(self, op: Op) -> None:
         if self._in_range(op) and self._check_transfer(op):
-            assert op.needle is not None and op.needle2 is not None
-            self._move(op.needle, op.needle2)
+            a, b = op.needle, op.needle2
+            assert a is not None and b is not None
+            if self._moved and self._xfer_racking != self.racking:
+                self._end_xfer_pass()
+            self._xfer_racking = self.racking
+            self._reverse_stitch(a, b, op)
+            self._move(a, b)
+
+    # -- W806: reverse stitches -----------------------------------------------------------------
+
+    def _reverse_stitch(self, a: Needle, b: Needle, op: Op) -> None:
+        """A purl by transfer moves a loop to the facing needle, knits it there and moves the
+        new loop back. When the facing needle held a loop of its own (knitted on its bed),
+        the knit pulls through both and the transfer back carries the facing bed's loop away
+        with it."""
+        back = self.rev_knit.pop(a, None) if self.rev_knit else None
+        if back is not None and back[0] == b:
+            k = self.prog.ops[back[1]]
+            self._report(
+                "reverse_occupied",
+                f"reverse stitch on {a}: `{k}` knitted {a}'s own loop together with the one "
+                f"moved from {b}, and `{op}` takes both to {b} (the facing needle was occupied)",
+            )
+        if self.rev_stacked:
+            self.rev_stacked.pop(a, None)
+            self.rev_stacked.pop(b, None)
+        if self.rev_knit:
+            self.rev_knit.pop(b, None)
+        on, front = self.on_needle, self.loop_front
+        if any(front[x] == b.is_front for x in on.get(b, ())) and any(
+            front[x] == a.is_front for x in on.get(a, ())
+        ):  # each needle holds a loop knitted on its own bed (else a lace move or decrease)
+            self.rev_stacked[b] = a
+
+    # -- W805: yarn stretched by transfers ------------------------------------------------------
+
+    def _end_xfer_pass(self) -> None:
+        """After a transfer pass: the loops it moved, against their yarn neighbours on the
+        same bed (a neighbour on the other bed moves with the racking, and the racking comes
+        back; a knitted-off one lies in the fabric). One finding per pass, the worst loop."""
+        moved, self._moved = self._moved, {}
+        if not moved:
+            return
+        at = self.loop_at
+        worst: tuple[int, int, int, int] | None = None  # stretch, loop, neighbour, op
+        # in stitch widths: the needles they were knitted apart (one in full gauge, two in
+        # half gauge, where the loops are as long as two needles' worth of yarn)
+        for x, i in moved.items():
+            nx = at[x]
+            if nx is None:
+                continue
+            for y, knitted in self.neighbours(x):
+                ny = at[y]
+                if ny is None or ny.is_front != nx.is_front:
+                    continue
+                s = abs(nx.index - ny.index) - knitted
+                if s > self.max_stretch * max(knitted, 1) and (worst is None or s > worst[0]):
+                    worst = (s, x, y, i)
+        if worst is not None:
+            s, x, y, i = worst
+            nx, ny = at[x], at[y]
+            assert nx is not None and ny is not None
+            d = abs(nx.index - ny.index)
+            width = max(d - s, 1)
+            self._report(
+                "stretch",
+                f"`{self.prog.ops[i]}` leaves the loop on {nx} {d} needles from its yarn "
+                f"neighbour on {ny}, {s} more than they were knitted apart (more than "
+                f"{self.max_stretch} stitch width{'s' * (self.max_stretch != 1)}"
+                + (f" of {width} needles" if width != 1 else "")
+                + "): the yarn between them is stretched",
+                op=i,
+            )
+
+    def neighbours(self, x: int) -> list[tuple[int, int]]:
+        """Loop `x`'s yarn neighbours on its bed when they were made: (loop, needles apart)."""
+        out = [(self.loop_prev[x], self.loop_prev_d[x]), (self.loop_next[x], self.loop_next_d[x])]
+        return [nb for nb in out if nb[0] >= 0] + self.loop_more.get(x, [])
+
+    def _new_loop(self, n: Needle, carriers: tuple[int, ...]) -> int:
+        x = len(self.loop_at)
+        self.loop_at.append(n)
+        self.loop_front.append(n.is_front)
+        self.loop_prev.append(-1)
+        self.loop_prev_d.append(-1)
+        self.loop_next.append(-1)
+        self.loop_next_d.append(-1)
+        for c in carriers:
+            y = self.last_loop.get(c)
+            self.last_loop[c] = x
+            if y is None or y == self.loop_prev[x]:  # (plated yarns from one loop: once)
+                continue
+            ny = self.loop_at[y]
+            if ny is None or ny.is_front != n.is_front:
+                continue
+            d = abs(n.index - ny.index)
+            if self.loop_prev[x] < 0:
+                self.loop_prev[x], self.loop_prev_d[x] = y, d
+            else:
+                self.loop_more.setdefault(x, []).append((y, d))
+            if self.loop_next[y] < 0:
+                self.loop_next[y], self.loop_next_d[y] = x, d
+            else:
+                self.loop_more.setdefault(y, []).append((x, d))
+        return x
+
+    # -- W804: held loops the yarn passes over ---------------------------------------------------
+
+    def _end_pass(self) -> None:
+        """Every needle strictly inside a finished knitting pass that holds loops and was not
+        knitted in it was missed once more (the yarn went past it in front of the bed)."""
+        if self._pass_key is None:
+            return
+        self._pass_key = None
+        loops, missed = self.loops, self.missed
+        for front, (lo, hi) in self._pass_span.items():
+            if hi - lo < 2:
+                continue
+            bed = "f" if front else "b"
+            touched = self._pass_touched[front]
+            for k in range(lo + 1, hi):
+                if k not in touched:
+                    n = Needle(bed, k)
+                    if n in loops:
+                        missed[n] = missed.get(n, 0) + 1
+        self._pass_span = {}
+        self._pass_touched = {True: set(), False: set()}
+
+    def _in_pass(self, op: Op, n: Needle) -> None:
+        pos = n.position(self.racking)
+        key = (op.dir, op.carriers, self.racking)
+        touched = self._pass_touched[n.is_front]
+        if key != self._pass_key or (pos - self._pass_pos) * op.dir < 0 or n.index in touched:
+            self._end_pass()
+            self._pass_key = key
+            touched = self._pass_touched[n.is_front]
+        self._pass_pos = pos
+        if op.kind == "miss" or n.is_slider:
+            return
+        touched.add(n.index)
+        lo_hi = self._pass_span.get(n.is_front)
+        if lo_hi is None:
+            self._pass_span[n.is_front] = [n.index, n.index]
+        elif n.index < lo_hi[0]:
+            lo_hi[0] = n.index
+        elif n.index > lo_hi[1]:
+            lo_hi[1] = n.index
 
     # -- carriers -----------------------------------------------------------------------------
 
     def _use(self, op: Op) -> None:
-        """Carriers of a knit/tuck/split/miss: in action, first pass after inhook leftward."""
+        """Carriers of a knit/tuck/split/miss: in action, first pass after inhook leftward,
+        clear of the parked hook, no more than the machine takes in one pass."""
+        if (
+            len(op.carriers) > self.machine.max_carriers_per_op
+            and op.carriers not in self.too_many_carriers
+        ):
+            self.too_many_carriers.add(op.carriers)
+            self._report(
+                "carriers_per_op",
+                f"`{op}` uses {len(op.carriers)} carriers in one op; the machine takes at "
+                f"most {self.machine.max_carriers_per_op} in a pass",
+            )
         for c in op.carriers:
             s = self.state.get(c, _OUT)
             if s == _OUT:
@@ -303,13 +595,28 @@ class Simulator:
                 continue
             self.state[c] = _ACTIVE
             self.last_use[c] = self._i
+            if self.carrier_dir.get(c) != op.dir:
+                self.carrier_dir[c] = op.dir
+                self._passes += 1
+                self.carrier_pass[c] = self._passes
         if self.hook and not self.hook_dir_checked and set(op.carriers) & set(self.hook):
             self.hook_dir_checked = True
             if op.dir > 0:
+                self.hook_block_reported = True  # where it parks follows from this mistake
                 self._report(
                     "hook",
                     f"the first pass after `inhook` must go leftward (-), "
                     f"but `{op}` goes rightward",
+                )
+        if self.hook_slot is not None and not self.hook_block_reported:
+            assert op.needle is not None
+            if math.floor(op.needle.position(self.racking)) >= self.hook_slot:
+                self.hook_block_reported = True
+                self._report(
+                    "hook",
+                    f"`{op}` uses {op.needle}, at or right of the inserting hook, which "
+                    f"holds carrier(s) {' '.join(map(str, self.hook))} just right of "
+                    f"{self.hook_first} until `releasehook`",
                 )
 
     def _one_hooked(self, op: Op) -> None:
@@ -332,7 +639,11 @@ class Simulator:
             self.state[c] = _PENDING
             self.stitched.discard(c)
             self.anchor.pop(c, None)
+            self.last_loop.pop(c, None)
+            self.carrier_dir.pop(c, None)
             self.last_use[c] = self._i
+            if op.kind == "in":
+                self.loose.add(c)
         if op.kind == "inhook":
             if self.hook:
                 self._report(
@@ -342,6 +653,12 @@ class Simulator:
                 )
             self.hook, self.hook_op = op.carriers, self._i
             self.hook_stitched = self.hook_dir_checked = False
+            self.hook_slot = self.hook_first = None
+            self.hook_block_reported = False
+
+    def _release(self) -> None:
+        self.hook = ()
+        self.hook_slot = self.hook_first = None
 
     def _releasehook(self, op: Op) -> None:
         self._one_hooked(op)
@@ -355,7 +672,7 @@ class Simulator:
             )
         elif not self.hook_stitched:
             self._report("hook", f"`{op}` before any stitch with the hooked carrier(s)")
-        self.hook = ()
+        self._release()
 
     def _out(self, op: Op) -> None:
         self._one_hooked(op)
@@ -367,7 +684,7 @@ class Simulator:
                 f"`{op}` while carrier(s) {which} are still on the inserting "
                 "hook (releasehook first)",
             )
-            self.hook = ()
+            self._release()
         for c in op.carriers:
             s = self.state.get(c, _OUT)
             if s == _OUT:
@@ -382,10 +699,14 @@ class Simulator:
                 )
             self.state[c] = _OUT
             self.anchor.pop(c, None)
+            self.last_loop.pop(c, None)
+            self.loose.discard(c)
             self.last_use[c] = self._i
 
     def _miss(self, op: Op) -> None:
         if self._in_range(op):
+            assert op.needle is not None
+            self._in_pass(op, op.needle)
             self._use(op)
 
     def _loop(self, op: Op) -> None:
@@ -394,6 +715,7 @@ class Simulator:
         assert n is not None
         if not self._in_range(op):
             self._use(op)
+            self._park_hook(op, n)
             return
         if n.is_slider:
             self._report("needle_use", f"`{op}` forms a loop on slider {n}")
@@ -402,9 +724,12 @@ class Simulator:
         if op.kind == "split" and not self._check_transfer(op):
             self._use(op)
             return
+        if self._moved:
+            self._end_xfer_pass()
+        self._in_pass(op, n)
         self._use(op)
-        if set(op.carriers) & set(self.hook):
-            self.hook_stitched = True
+        self._park_hook(op, n)
+        held = self.loops.get(n, 0)
         for c in op.carriers:
             prev = self.anchor.get(c)
             if prev is not None:
@@ -417,7 +742,15 @@ class Simulator:
                     )
             self.anchor[c] = n
             self.stitched.add(c)
-        held = self.loops.get(n, 0)
+            if c in self.loose:
+                self.loose.discard(c)
+                if not held and self.state.get(c) == _ACTIVE:
+                    self._report(
+                        "loose_yarn",
+                        f"carrier {c} came in with `in`, not `inhook`, and its first loop "
+                        f"`{op}` is on empty needle {n}: nothing holds the yarn end "
+                        "(bring it in with `inhook`, or start it on loops)",
+                    )
         if op.kind == "knit":
             if not held:
                 self._report(
@@ -425,13 +758,79 @@ class Simulator:
                     f"`{op}` knits on empty needle {n} "
                     "(nothing holds the new loop; tuck to cast on)",
                 )
+            self._knit_through(op, n, held)
             self._set(n, 1)
+            for x in self.on_needle.pop(n, ()):
+                self.loop_at[x] = None
+            self.on_needle[n] = [self._new_loop(n, op.carriers)]
         elif op.kind == "tuck":
             self._set(n, held + 1)
+            if self.rev_stacked:
+                self.rev_stacked.pop(n, None)
+            if self.rev_knit:
+                self.rev_knit.pop(n, None)
+            if held:
+                if self.cast_on_live:
+                    self.cast_on_live.discard(n)
+            else:
+                c = op.carriers[0]
+                self.cast_on[n] = (c, self.carrier_pass.get(c, -1))
+                self.cast_on_live.add(n)
+            self.on_needle.setdefault(n, []).append(self._new_loop(n, op.carriers))
         else:  # split: the old loops go across, the new one stays
             assert op.needle2 is not None
+            self._knit_through(op, n, held)
+            self._forget(n)
             self._move(n, op.needle2)
             self._set(n, 1)
+            self.on_needle[n] = [self._new_loop(n, op.carriers)]
+
+    def _park_hook(self, op: Op, n: Needle) -> None:
+        """The hooked carrier's first loop parks the hook in the slot right of it."""
+        if self.hook and set(op.carriers) & set(self.hook):
+            self.hook_stitched = True
+            if self.hook_slot is None:
+                self.hook_slot = math.floor(n.position(self.racking)) + 1
+                self.hook_first = n
+
+    def _knit_through(self, op: Op, n: Needle, held: int) -> None:
+        """The hazards of pulling a new loop through the loops of `n` (knit or split)."""
+        m = self.missed.pop(n, 0) if self.missed else 0
+        if m > self.max_misses:
+            self._report(
+                "long_miss",
+                f"`{op}` knits through the loop on {n}, which the yarn passed over "
+                f"without knitting it in {m} passes in a row (more than {self.max_misses}): "
+                "the held loop is drawn long and strains",
+            )
+        if self.cast_on_live and n in self.cast_on_live:
+            if held == 1:
+                self._cast_on_knit(op, n)
+            self.cast_on_live.discard(n)
+        if op.kind == "knit":
+            came_from = self.rev_stacked.pop(n, None) if self.rev_stacked else None
+            if came_from is not None:
+                self.rev_knit[n] = (came_from, self._i)
+            elif self.rev_knit:
+                self.rev_knit.pop(n, None)
+
+    def _cast_on_knit(self, op: Op, n: Needle) -> None:
+        """A knit through a cast-on loop (a tuck onto the empty needle) before its carrier
+        has turned since it tucked it: no course the other way holds the tucks yet, so
+        the knit, drawing its yarn from the same side, pulls them off. A cast-on knitted
+        back the other way (every cast-on of knitc's, an interlock, a tube's) is fine."""
+        c, tucked = self.cast_on[n]
+        if c not in op.carriers or tucked != self.carrier_pass.get(c):
+            return
+        if (c, tucked) in self.cast_on_reported:
+            return
+        self.cast_on_reported.add((c, tucked))
+        self._report(
+            "cast_on_knit",
+            f"`{op}` knits the cast-on loop on {n} before carrier {c} has turned since it "
+            "tucked it onto the empty needle: no course the other way holds the cast-on yet, "
+            "and the knit pulls it off (knit the first course back the other way)",
+        )
 
     # -- racking ------------------------------------------------------------------------------
 
@@ -482,17 +881,22 @@ class Simulator:
 def simulate(
     prog: MachineProgram,
     *,
-    max_loops: int = 2,
-    max_float: int = 12,
+    max_loops: int | None = None,
+    max_float: int | None = None,
     check_end: bool = True,
     limit_per_kind: int = 100,
+    placed: bool = False,
 ) -> list[Finding]:
     """Run `prog` on knitc's machine model; findings in program order (end-state ones last).
 
-    max_loops: warn when an op leaves more loops than this on a needle.
-    max_float: warn when a carrier's consecutive loops are more than this many needles apart.
+    max_loops: warn when an op leaves more loops than this on a needle (default: the
+      machine profile's `max_loops`).
+    max_float: warn when a carrier's consecutive loops are more than this many needles apart
+      (default: the profile's `max_float`).
     check_end: False for a fragment that deliberately leaves loops or carriers.
     limit_per_kind: report at most this many findings of one kind (then one summary).
+    placed: needle numbers as the program's `;;Position:` places them (`Simulator`), for a
+      Knitout file read from another tool.
     """
     return Simulator(
         prog,
@@ -500,12 +904,14 @@ def simulate(
         max_float=max_float,
         check_end=check_end,
         limit_per_kind=limit_per_kind,
+        placed=placed,
     ).run()
 
 
 def add_to_diagnostics(findings: list[Finding], prog: MachineProgram, diags: Diagnostics) -> None:
-    """Report findings as diagnostics at the DSL span of the op that caused them, with a note
-    naming the op (and its stitch)."""
+    """Report findings as diagnostics at the span of the op that caused them (a DSL line, or
+    the Knitout line of a program read from a file), with a note naming the op (and its
+    stitch)."""
     for f in findings:
         notes = []
         if 0 <= f.op < len(prog.ops):
