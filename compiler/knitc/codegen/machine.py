@@ -603,14 +603,22 @@ class MachineProgram:
 
 
 def estimate_passes(ops: Iterable[Op]) -> int:
-    """Carriage passes, estimated the way backends merge ops (research §1.5).
+    """Carriage passes, estimated the way backends merge ops (research §1.5; `pass_index`)."""
+    return max(pass_index(ops), default=-1) + 1
+
+
+def pass_index(ops: Iterable[Op]) -> list[int]:
+    """The carriage pass of every op (0, 1, ...; -1 for ops the carriage does not make:
+    racking, carriers, settings, comments).
 
     Consecutive knit/tuck/split/miss ops share a pass while direction, carriers and racking
     stay and the needles progress in the direction without reuse; consecutive xfers share
     one while the racking stays and no needle is used twice; drops and amiss likewise. Carrier
-    ops, settings and comments do not move the carriage; a pause ends the pass.
+    ops, settings and comments do not move the carriage; a pause ends the pass. The views
+    draw one row per pass from this, so their rows are the passes knitc reports.
     """
-    passes = 0
+    out: list[int] = []
+    passes = -1
     cur: tuple[Any, ...] | None = None  # (class, dir, carriers, racking)
     used: set[Needle] = set()
     last_pos = 0.0
@@ -619,9 +627,11 @@ def estimate_passes(ops: Iterable[Op]) -> int:
         k = op.kind
         if k == "rack":
             racking = op.value  # type: ignore[assignment]
+            out.append(-1)
             continue
         if k == "pause":
             cur = None
+            out.append(-1)
             continue
         if k in DIRECTED_KINDS:
             key: tuple[Any, ...] = ("knit", op.dir, op.carriers, racking)
@@ -630,6 +640,7 @@ def estimate_passes(ops: Iterable[Op]) -> int:
         elif k in ("drop", "amiss"):
             key = ("drop", 0, (), racking)
         else:
+            out.append(-1)
             continue
         assert op.needle is not None
         pos = op.needle.position(racking)
@@ -642,7 +653,8 @@ def estimate_passes(ops: Iterable[Op]) -> int:
             cur, used = key, set()
         used |= needles
         last_pos = pos
-    return passes
+        out.append(passes)
+    return out
 
 
 # ---- verifier ---------------------------------------------------------------------------------

@@ -14,6 +14,7 @@ from knitc.lang.evaluate import (
     Value,
 )
 from knitc.patterning.raster import cell_problems
+from knitc.shaping.stitch_graph import INSTRUCTIONS
 
 # ---- scopes for pattern, action and shaper bodies ----------------------------------------------
 
@@ -61,26 +62,6 @@ SHAPER_CONTEXT = ("turn",)
 """Names a shaper program can read besides its parameters (`shaping.shapers`)."""
 BUILTIN_ACTIONS = ("knit", "purl", "tuck", "miss", "kickback", "split")
 SHAPER_FUNCTIONS = {"range": (1, 3), "len": (1, 1)}
-
-INSTRUCTIONS = (
-    "K",
-    "P",
-    "T",
-    "M",
-    "FR1",
-    "FR2",
-    "FL1",
-    "FL2",
-    "BR1",
-    "BR2",
-    "BL1",
-    "BL2",
-    "XR+",
-    "XR-",
-    "XL+",
-    "XL-",
-    "S",
-)
 
 
 class NameChecker:

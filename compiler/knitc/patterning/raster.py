@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from knitc.frontend import ast
+from knitc.shaping.stitch_graph import INSTRUCTIONS
 
 OFF = -1
 OFF_CELLS = (".", "0")
@@ -59,25 +60,7 @@ class Placement:
 
 # ---- charts --------------------------------------------------------------------------------
 
-MNEMONICS = (
-    "K",
-    "P",
-    "T",
-    "M",
-    "FR1",
-    "FR2",
-    "FL1",
-    "FL2",
-    "BR1",
-    "BR2",
-    "BL1",
-    "BL2",
-    "XR+",
-    "XR-",
-    "XL+",
-    "XL-",
-    "S",
-)
+MNEMONICS = INSTRUCTIONS
 """The 17 instruction mnemonics a drawn grid may hold (and `.`: leave the stitch)."""
 CROSS_MNEMONICS = ("XR+", "XR-", "XL+", "XL-")
 

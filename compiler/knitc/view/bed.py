@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from knitc.codegen.machine import DIRECTED_KINDS, Op
+from knitc.codegen.machine import Op, pass_index
 from knitc.view import figure
 
 if TYPE_CHECKING:
@@ -35,44 +35,8 @@ _P = 1  # INSTRUCTIONS.index("P")
 
 def pass_rows(ops: list[Op]) -> np.ndarray:
     """Per op, the carriage pass it belongs to (0, 1, ...), -1 for ops the carriage does not
-    make (racking, carriers, settings, comments). The rules of `estimate_passes`: directed
-    ops share a pass while direction, carriers and racking stay and the needles progress
-    without reuse; transfers while the racking stays and no needle repeats; drops alike."""
-    out = np.full(len(ops), -1, np.int64)
-    passes = -1
-    cur: tuple[object, ...] | None = None
-    used: set[object] = set()
-    last_pos = 0.0
-    racking: float = 0
-    for idx, op in enumerate(ops):
-        k = op.kind
-        if k == "rack":
-            racking = op.value  # type: ignore[assignment]
-            continue
-        if k == "pause":
-            cur = None
-            continue
-        if k in DIRECTED_KINDS:
-            key: tuple[object, ...] = ("knit", op.dir, op.carriers, racking)
-        elif k == "xfer":
-            key = ("xfer", 0, (), racking)
-        elif k in ("drop", "amiss"):
-            key = ("drop", 0, (), racking)
-        else:
-            continue
-        assert op.needle is not None
-        pos = op.needle.position(racking)
-        needles = {op.needle} if op.needle2 is None else {op.needle, op.needle2}
-        same = cur == key and not (needles & used)
-        if same and k in DIRECTED_KINDS:
-            same = (pos - last_pos) * op.dir >= 0
-        if not same:
-            passes += 1
-            cur, used = key, set()
-        used |= needles
-        last_pos = pos
-        out[idx] = passes
-    return out
+    make: `machine.pass_index`, so the rows are the passes knitc reports."""
+    return np.asarray(pass_index(ops), dtype=np.int64)
 
 
 @dataclass

@@ -36,7 +36,14 @@ from typing import Any
 
 import numpy as np
 
-from knitc.codegen.machine import BEDS, CODE_PASSES, DIRECTED_KINDS, KINDS, MachineProgram, Op
+from knitc.codegen.machine import (
+    BEDS,
+    CODE_PASSES,
+    KINDS,
+    MachineProgram,
+    Op,
+    pass_index,
+)
 from knitc.codegen.simulate import Finding
 from knitc.diagnostics import Diagnostic, Diagnostics
 from knitc.scheduling.schedule import Schedule
@@ -57,51 +64,10 @@ TUBE_GAP = 2
 
 
 def pass_rows(ops: Sequence[Op]) -> list[int]:
-    """The carriage pass of every op (-1 for ops that do not move the carriage over a
-    needle: carrier ops, settings, racks, comments).
-
-    The same rule as `machine.estimate_passes` (so the bed view has exactly as many rows as
-    knitc reports passes): directed ops share a pass while direction, carriers and racking
-    stay and the needles progress without reuse; transfers share one while the racking
-    stays and no needle is used twice; drops likewise; a pause ends the pass."""
-    rows: list[int] = []
-    passes = -1
-    cur: tuple[Any, ...] | None = None
-    used: set[Any] = set()
-    last_pos = 0.0
-    racking: float = 0
-    for op in ops:
-        k = op.kind
-        if k == "rack":
-            racking = op.value  # type: ignore[assignment]
-            rows.append(-1)
-            continue
-        if k == "pause":
-            cur = None
-            rows.append(-1)
-            continue
-        if k in DIRECTED_KINDS:
-            key: tuple[Any, ...] = ("knit", op.dir, op.carriers, racking)
-        elif k == "xfer":
-            key = ("xfer", 0, (), racking)
-        elif k in ("drop", "amiss"):
-            key = ("drop", 0, (), racking)
-        else:
-            rows.append(-1)
-            continue
-        assert op.needle is not None
-        pos = op.needle.position(racking)
-        needles = {op.needle} if op.needle2 is None else {op.needle, op.needle2}
-        same = cur == key and not (needles & used)
-        if same and k in DIRECTED_KINDS:
-            same = (pos - last_pos) * op.dir >= 0
-        if not same:
-            passes += 1
-            cur, used = key, set()
-        used |= needles
-        last_pos = pos
-        rows.append(passes)
-    return rows
+    """The carriage pass of every op, -1 for ops that do not move the carriage over a
+    needle (`machine.pass_index`: the bed view has exactly as many rows as knitc reports
+    passes)."""
+    return pass_index(ops)
 
 
 # ---- the data ---------------------------------------------------------------------------------
