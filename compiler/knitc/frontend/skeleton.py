@@ -50,7 +50,9 @@ MACHINE_PROPS: dict[str, PropSpec] = {
     "model": PropSpec("string", "SWG091N2", doc="machine model, for the Knitout header"),
     "needles": PropSpec("int", 541, min=1, max=2000, doc="needles per bed"),
     "gauge": PropSpec("choice", "full", GAUGES, doc="default gauge of every node"),
-    "racking": PropSpec("int", 4, min=0, max=8, doc="largest racking the machine allows"),
+    "racking": PropSpec(
+        "int", 4, min=0, max=4, doc="largest racking the machine allows (SWG091N2: 4)"
+    ),
     "carriers": PropSpec("carriers", (3,), doc="yarn carriers in use (1..10)"),
     "increase": PropSpec("choice", "kickback", INCREASES, doc="default increase type"),
     "cast_on": PropSpec("choice", "interlock", CAST_ONS, doc="default cast-on"),
