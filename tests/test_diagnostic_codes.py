@@ -18,6 +18,9 @@ WITHOUT_GOLDEN_CASE: dict[str, str] = {
     "E000": "not a diagnostic: the resolver's `_Silent` marker for an evaluation that failed "
     "on an error already reported, never printed (golden 110_param_cycle and "
     "112_param_self_reference go through it and show each mistake once)",
+    "E531": "defensive: a shaper's mapping the checks before it (E318, E319) let through; the "
+    "only input that reached it, a pattern's name as `shaper:`, is now E312 at the property "
+    "(golden 223); tests/test_shapers.py covers MappingError",
     "E317": "the resolver reports an assignment to a context name (`needle = ...`) as E222 "
     "before any action runs, so the interpreter's own check cannot fire; "
     "tests/test_interp.py::test_constants_are_readable_not_assignable",

@@ -386,9 +386,20 @@ class _Resolver:
                 raise fail(f"{what} must be one of {_choices(spec.choices)}, got {type_name(v)}")
             if word in spec.choices:
                 return word
-            if kind == "shaper" and (word in self.defs.shapers or self.defs.known(word)):
-                return word
+            other = self.defs.kind_of(word)
+            if kind == "shaper" and (
+                word in self.defs.shapers or (other is None and self.defs.known(word))
+            ):
+                return word  # a shaper, or one a failed import may have defined
             extra = list(self.defs.shapers) if kind == "shaper" else []
+            if kind == "shaper" and other is not None:
+                raise EvalError(
+                    "E312",
+                    f"{what} cannot be `{word}`: it is {'an' if other == 'action' else 'a'} "
+                    f"{other}, not a shaper",
+                    span,
+                    f"choose one of {_choices(tuple(spec.choices) + tuple(extra))}",
+                )
             raise EvalError(
                 "E312",
                 f"{what} cannot be `{word}`",
