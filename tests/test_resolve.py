@@ -255,7 +255,7 @@ def test_prop_in_machine_block():
         ("joint j { rows: -1 }", "E313"),
         ("tube a { width: 0 }", "E313"),
         ("machine { racking: 9 }", "E313"),
-    ("machine { racking: 5 }", "E313"),  # beyond SWG091N2, which k2dat would refuse
+        ("machine { racking: 5 }", "E313"),  # beyond SWG091N2, which k2dat would refuse
         ("machine { carriers: [] }", "E311"),
         ("machine { carriers: [1, 1] }", "E311"),
         ("machine { carriers: [11] }", "E313"),
