@@ -19,7 +19,7 @@ import re
 from dataclasses import dataclass
 from functools import lru_cache
 
-from lark import Lark, Token, Transformer, v_args
+from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 from lark.lexer import Lexer
 from lark.parsers.lalr_analysis import Shift
@@ -808,6 +808,23 @@ def _report(
         diags.error("E100", f"unexpected character `{char}`", span)
 
 
+MAX_NESTING = 100
+"""Deepest parse tree accepted: the AST builder and the evaluators recurse once (or a few
+frames) per level, so a design nested deeper than this would exhaust Python's stack
+instead of getting a located error (E111)."""
+
+
+def _too_deep(tree: Tree) -> Tree | None:
+    """The first subtree found below `MAX_NESTING` levels, walked without recursion."""
+    stack = [(tree, 1)]
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_NESTING:
+            return node
+        stack.extend((c, depth + 1) for c in node.children if isinstance(c, Tree))
+    return None
+
+
 def parse_source(source: SourceFile, diags: Diagnostics) -> ast.Module | None:
     """Parse one file. On syntax errors, report them all and return None."""
     diags.add_source(source)
@@ -819,6 +836,17 @@ def parse_source(source: SourceFile, diags: Diagnostics) -> ast.Module | None:
         _recover(source, diags)
         if diags.error_count == before:  # every statement parses alone: report the whole
             _report(err, source, diags, None)
+        return None
+    deep = _too_deep(tree)
+    if deep is not None:
+        meta = deep.meta
+        at = source.span(meta.start_pos, meta.end_pos) if not meta.empty else None
+        diags.error(
+            "E111",
+            f"expressions nest more than {MAX_NESTING} levels deep here",
+            at,
+            hint="split the expression with `param`s or `let`s; no garment needs this depth",
+        )
         return None
     try:
         module = _ToAst(source).transform(tree)
