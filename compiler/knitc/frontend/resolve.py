@@ -82,6 +82,7 @@ class _Resolver:
         nodes: dict[str, sk.PrimNode] = {}
         for name, decl in self.node_decls.items():
             nodes[name] = self._node(decl, machine)
+        self._check_budget(nodes)
         interfaces = {
             sk.ItfId(n.name, p): sk.Interface(sk.ItfId(n.name, p), span=n.span)
             for n in nodes.values()
@@ -199,6 +200,27 @@ class _Resolver:
             self.tainted.add(self.prop_stack[0][0])
 
     # -- nodes and properties
+    def _check_budget(self, nodes: dict[str, sk.PrimNode]) -> None:
+        """Refuse a design larger than knitc compiles (E512) before any stitch is made:
+        every property may be in range and the product still need tens of gigabytes."""
+        sizes = {}
+        for name, n in nodes.items():
+            if n.kind in ("sheet", "tube") and isinstance(n.props.get("width"), Profile):
+                width = max(cast(Profile, n.props["width"]).values())
+                sides = 1 if n.tubular is False else 2
+                sizes[name] = int(cast(int, n.props["length"])) * math.ceil(width) * sides
+        total = sum(sizes.values())
+        if total > sk.MAX_STITCHES:
+            big = max(sizes, key=lambda k: sizes[k])
+            node = nodes[big]
+            self.diags.error(
+                "E512",
+                f"the design would have about {total:,} stitches (`{big}` alone {sizes[big]:,}); "
+                f"knitc compiles at most {sk.MAX_STITCHES:,}",
+                node.prop_spans.get("length", node.span),
+                hint="a garment is tens of thousands of stitches: check `length` and `width`",
+            )
+
     def _collect_nodes(self) -> None:
         for item in self.module.items:
             if isinstance(item, ast.NodeDecl):

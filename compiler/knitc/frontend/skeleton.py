@@ -46,6 +46,11 @@ SHAPERS = ("uniform", "center", "left", "right", "sides", "none")
 ALIGNMENTS = ("center", "left", "right")
 CLOSINGS = ("collapse", "zigzag", "zigzagreturn")
 
+MAX_STITCHES = 2_000_000
+"""Most stitches a design may have (sheets and tubes at their widest): a million compile in
+under a minute and a gigabyte; beyond this a legal-looking design (`length: 100000`,
+`width: 5000`) would exhaust memory instead of being refused (E512)."""
+
 MACHINE_PROPS: dict[str, PropSpec] = {
     "model": PropSpec("string", "SWG091N2", doc="machine model, for the Knitout header"),
     "needles": PropSpec("int", 541, min=1, max=2000, doc="needles per bed"),
