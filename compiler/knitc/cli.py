@@ -427,21 +427,14 @@ def _read_input(path: str, binary: bool) -> str | bytes | None:
 
 
 def _cmd_k2dat(args: argparse.Namespace) -> int:
-    from knitc.backends.knitout_read import KnitoutErrors, knitout_diagnostics, parse_knitout
+    from knitc.backends.knitout_read import read_knitout_file
 
     if not _output_ok(args.output or os.path.splitext(args.file)[0] + ".dat", (args.file,)):
         return 1
-    text = _read_input(args.file, binary=False)
-    if text is None:
+    prog, diags = read_knitout_file(args.file)
+    if prog is None:
+        _report(diags, args.quiet)
         return 1
-    assert isinstance(text, str)
-    warnings: list = []
-    try:
-        prog = parse_knitout(text, args.file, warnings=warnings)
-    except KnitoutErrors as exc:
-        _report(knitout_diagnostics(args.file, text, exc.errors, exc.warnings), args.quiet)
-        return 1
-    diags = knitout_diagnostics(args.file, text, (), warnings)
     data = _dat_bytes(prog, diags, args.quiet)
     if data is None:
         return 1

@@ -31,40 +31,28 @@ reader of a Knitout file: its line does).
 
 from __future__ import annotations
 
-from knitc.backends.knitout_read import (
-    KnitoutError,
-    KnitoutErrors,
-    knitout_diagnostics,
-    parse_knitout,
-)
+from knitc.backends.knitout_read import read_knitout, read_knitout_file
 from knitc.codegen.machine import MachineProgram
 from knitc.codegen.simulate import Finding, simulate
 from knitc.diagnostics import Diagnostics, Note
 
 
 def lint_text(text: str, path: str) -> Diagnostics:
-    """The diagnostics of Knitout `text` (read from `path`, which the spans name)."""
-    warnings: list[KnitoutError] = []
-    try:
-        prog = parse_knitout(text, path, warnings=warnings)
-    except KnitoutErrors as exc:
-        return knitout_diagnostics(path, text, exc.errors, exc.warnings)
-    diags = knitout_diagnostics(path, text, (), warnings)
-    report(simulate(prog, placed=True), prog, diags)
-    return diags
+    """The diagnostics of Knitout `text` (read from `path`, which the spans name): the
+    reader's errors alone when it does not parse, else the simulation's findings too."""
+    return _lint(*read_knitout(text, path))
 
 
 def lint_file(path: str) -> Diagnostics:
-    """`knitc lint FILE.k`: the diagnostics of the Knitout file at `path` (E001 when it
-    cannot be read or is not UTF-8)."""
-    try:
-        with open(path, "rb") as f:
-            text = f.read().decode("utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        diags = Diagnostics()
-        diags.error("E001", f"cannot read `{path}`: {exc}", None)
-        return diags
-    return lint_text(text, path)
+    """`knitc lint FILE.k`: `lint_text` of the file at `path` (E001 when it cannot be read
+    or is not UTF-8)."""
+    return _lint(*read_knitout_file(path))
+
+
+def _lint(prog: MachineProgram | None, diags: Diagnostics) -> Diagnostics:
+    if prog is not None:
+        report(simulate(prog, placed=True), prog, diags)
+    return diags
 
 
 def report(findings: list[Finding], prog: MachineProgram, diags: Diagnostics) -> None:

@@ -669,3 +669,28 @@ def parse_knitout(
     prog = MachineProgram(machine, position=h.position, width=h.width)
     prog.extend(r.ops)
     return prog
+
+
+def read_knitout_file(path: str) -> tuple[MachineProgram | None, Diagnostics]:
+    """The program of the Knitout file at `path` (None after errors) and its diagnostics:
+    E001 when it cannot be read or is not UTF-8, the reader's errors and warnings with the
+    source attached. What `k2dat`, `lint` and `view` all start from."""
+    try:
+        with open(path, "rb") as f:
+            text = f.read().decode("utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        diags = Diagnostics()
+        diags.error("E001", f"cannot read `{path}`: {exc}", None)
+        return None, diags
+    return read_knitout(text, path)
+
+
+def read_knitout(text: str, path: str) -> tuple[MachineProgram | None, Diagnostics]:
+    """`parse_knitout` as diagnostics: the program (None after errors) and the reader's
+    errors and warnings located in `text` (read from `path`)."""
+    warnings: list[KnitoutError] = []
+    try:
+        prog = parse_knitout(text, path, warnings=warnings)
+    except KnitoutErrors as exc:
+        return None, knitout_diagnostics(path, text, exc.errors, exc.warnings)
+    return prog, knitout_diagnostics(path, text, (), warnings)

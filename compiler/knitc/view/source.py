@@ -47,21 +47,11 @@ def load(path: str, defines: list[str] | tuple[str, ...] = ()) -> Loaded:
     from knitc.codegen.simulate import simulate
 
     if _is_knitout(path):
-        from knitc.backends.knitout_read import KnitoutErrors, knitout_diagnostics, parse_knitout
+        from knitc.backends.knitout_read import read_knitout_file
 
-        try:
-            with open(path, encoding="utf-8") as f:
-                text = f.read()
-        except (OSError, UnicodeDecodeError) as exc:
-            diags = Diagnostics()
-            diags.error("E001", f"cannot read `{path}`: {exc}", None)
+        prog, diags = read_knitout_file(path)
+        if prog is None:
             return Loaded(diags, None)
-        warnings: list = []
-        try:
-            prog = parse_knitout(text, path, warnings=warnings)
-        except KnitoutErrors as exc:
-            return Loaded(knitout_diagnostics(path, text, exc.errors, exc.warnings), None)
-        diags = knitout_diagnostics(path, text, (), warnings)
         return Loaded(diags, ViewInput(path, prog, simulate(prog), diagnostics=diags))
     from knitc.driver import compile_file
 
