@@ -15,8 +15,9 @@ import sys
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 
-from knitc.codegen.machine import MachineProgram, estimate_passes
+from knitc.codegen.machine import MachineProgram, pass_index
 from knitc.driver import Result
 
 PITCH_MM = 25.4 / 15
@@ -31,20 +32,44 @@ REVERSAL_S = 0.3
 """Seconds to stop and reverse the carriage."""
 
 
+@dataclass(frozen=True)
+class Workload:
+    """What the carriage does for a program: its knitting and transfer passes (the passes
+    knitc reports, `machine.pass_index`) and the needles it spans."""
+
+    knit_passes: int
+    transfer_passes: int
+    needles: int
+
+    @property
+    def passes(self) -> int:
+        return self.knit_passes + self.transfer_passes
+
+    @property
+    def seconds(self) -> float:
+        """Estimated knitting time (see the module docstring)."""
+        travel = (self.needles * PITCH_MM + 2 * RUN_OUT_MM) / 1000.0
+        return self.knit_passes * (travel / KNIT_SPEED + REVERSAL_S) + self.transfer_passes * (
+            travel / TRANSFER_SPEED + REVERSAL_S
+        )
+
+
+def workload(prog: MachineProgram) -> Workload:
+    """One walk over the program's passes: each is a transfer pass or a knitting one by
+    the kind of its operations (a pass never mixes them)."""
+    first: dict[int, str] = {}
+    for op, p in zip(prog.ops, pass_index(prog.ops), strict=True):
+        if p >= 0:
+            first.setdefault(p, op.kind)
+    xfers = sum(1 for kind in first.values() if kind == "xfer")
+    idx = [n.index for op in prog.ops for n in (op.needle, op.needle2) if n is not None]
+    width = max(idx) - min(idx) + 1 if idx else 0
+    return Workload(len(first) - xfers, xfers, width)
+
+
 def machine_seconds(prog: MachineProgram) -> float:
     """Estimated knitting time of `prog` (see the module docstring)."""
-    width = _width(prog)
-    travel = (width * PITCH_MM + 2 * RUN_OUT_MM) / 1000.0
-    xfers = estimate_passes(op for op in prog.ops if op.kind == "xfer")
-    knits = max(estimate_passes(prog.ops) - xfers, 0)
-    return knits * (travel / KNIT_SPEED + REVERSAL_S) + xfers * (
-        travel / TRANSFER_SPEED + REVERSAL_S
-    )
-
-
-def _width(prog: MachineProgram) -> int:
-    rng = prog.stats()["needle_range"]
-    return 0 if rng is None else int(rng[1]) - int(rng[0]) + 1
+    return workload(prog).seconds
 
 
 def summary_line(result: Result, output: str) -> str:
@@ -57,14 +82,10 @@ def summary_line(result: Result, output: str) -> str:
         yarns = len(set(result.trace.yarn.tolist()))
         parts.append(f"{yarns} yarn{'s' * (yarns != 1)}")
     if result.program is not None:
-        prog = result.program
-        parts.append(f"{estimate_passes(prog.ops)} carriage passes on {_width(prog)} needles")
-        minutes = machine_seconds(prog) / 60
-        parts.append(
-            f"about {minutes:.0f} min on the machine"
-            if minutes >= 1
-            else f"about {machine_seconds(prog):.0f} s on the machine"
-        )
+        w = workload(result.program)
+        parts.append(f"{w.passes} carriage passes on {w.needles} needles")
+        time = f"{w.seconds / 60:.0f} min" if w.seconds >= 60 else f"{w.seconds:.0f} s"
+        parts.append(f"about {time} on the machine")
     return f"knitc: wrote {output}: " + ", ".join(parts) + "\n"
 
 
