@@ -122,7 +122,6 @@ def _stitch_graph(r: Result) -> bool:
     graph = build_stitch_graph(r.skeleton, r.diagnostics)
     if graph is None:
         return False
-    _verify("shape", sg.verify(graph))
     patterned = apply_patterns(r.skeleton, graph, r.diagnostics)
     r.graph = check_instructions(patterned, r.diagnostics, racking=r.skeleton.machine.racking)
     return True
