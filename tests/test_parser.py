@@ -498,3 +498,57 @@ def test_errors_are_never_silent(monkeypatch):
 
     monkeypatch.setattr(parser, "_recover", lambda source, diags: None)
     assert "error[E101]" in syntax_error("param x = = 1")
+
+
+# ---- error recovery stays linear ----------------------------------------------------------------
+
+
+def test_recovery_parses_the_file_about_twice(monkeypatch):
+    # Error recovery parses each top-level statement on its own text: the work is the file
+    # once for the first try and once more in statements, however many statements there
+    # are (it used to parse the text before each statement again, blanked: quadratic).
+    from knitc.frontend import parser
+
+    lines = ["sheet a { width: 10 length: 10 }"]
+    lines += [f"param x{k} = {k}" for k in range(300)]
+    lines += ["sheet b { width: 3 length: }"]
+    text = "\n".join(lines) + "\n"
+    parsed: list[int] = []
+    real = parser._parse
+
+    def counting(chunk: str, comments: list) -> object:
+        parsed.append(len(chunk))
+        return real(chunk, comments)
+
+    monkeypatch.setattr(parser, "_parse", counting)
+    message = syntax_error(text)
+    assert message.count("error[") == 1
+    assert f"<input>:{len(lines)}:28: error[E101]" in message
+    assert sum(parsed) <= 2 * len(text)
+
+
+def test_long_word_before_the_end_of_the_file():
+    # The last word before an unexpected end is found by scanning back, not by a regex
+    # search that tried every start inside the run (quadratic: 40 KB took 24 s).
+    word = "x" * 400_000
+    message = syntax_error(f"param p = 1 + {word} +")
+    assert f"<input>:1:{len('param p = 1 + ') + len(word) + 2}: error[E101]" in message
+    assert "error[E102]: unclosed `{`" in syntax_error("sheet a { width: 10 length: " + word)
+
+
+def test_many_errors_each_reported():
+    # One report per broken statement, each at its own line, with no cascade.
+    text = "".join(f"param p{k} = \n" for k in range(200))
+    message = syntax_error(text)
+    assert message.count("error[E101]") == 200
+    assert "<input>:200:" in message
+
+
+def test_enormous_source_line_is_clipped_around_the_caret():
+    text = "param p = " + "x" * 40_000 + " $ " + "y" * 40_000
+    message = syntax_error(text)
+    head, source_line, caret_line = message.splitlines()[:3]
+    assert head.startswith("<input>:1:40012: error[E100]")
+    assert len(source_line) < 120 and len(caret_line) < 120
+    assert source_line.count("…") == 2
+    assert source_line[caret_line.index("^")] == "$"

@@ -143,8 +143,32 @@ def _excerpt(span: Span, sources: dict[str, SourceFile], gutter: int) -> list[st
         width = max(span.end_column - span.column, 1)
     else:
         width = max(len(expanded) - start, 1)
+    shown, start, width = _clip(expanded, start, width)
     caret = " " * start + "^" * width
-    return [f"{span.line:>{gutter}} | {expanded}\n", f"{pad} | {caret}\n"]
+    return [f"{span.line:>{gutter}} | {shown}\n", f"{pad} | {caret}\n"]
+
+
+EXCERPT_WIDTH = 100
+"""Most characters of a source line a diagnostic prints: a 40 KB line (a minified or
+generated design, or a hostile one) would otherwise be echoed whole, with a caret as long."""
+
+
+def _clip(line: str, start: int, width: int) -> tuple[str, int, int]:
+    """`line` cut to about `EXCERPT_WIDTH` characters around the caret at `start` (of
+    `width`), with `…` where text was left out; and the caret's start and width in it."""
+    if len(line) <= EXCERPT_WIDTH:
+        return line, start, width
+    context = EXCERPT_WIDTH // 4
+    lo = max(0, min(start - context, len(line) - EXCERPT_WIDTH))
+    hi = min(len(line), lo + EXCERPT_WIDTH)
+    shown = line[lo:hi]
+    caret_start = start - lo
+    caret_width = max(min(width, hi - start), 1)
+    if lo > 0:
+        shown, caret_start = "…" + shown, caret_start + 1
+    if hi < len(line):
+        shown += "…"
+    return shown, caret_start, caret_width
 
 
 def at_designer(
