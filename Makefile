@@ -3,7 +3,9 @@
 #
 #   make run        create .venv, install knitc into it, compile examples/sweater.knit to Knitout
 #   make test       install knitc + test tools into .venv, run the test suite (deterministic)
-#   make explore    the test suite with fresh random hypothesis examples (fuzzing runs)
+#   make explore    the test suite with fresh random hypothesis examples
+#   make fuzz       coverage-guided fuzzing of every target, FUZZ_TIME s each (default 60;
+#                   CI runs it after the tests); make fuzz-long: 30 minutes each
 #   make lint       ruff check, ruff format --check, mypy (what CI runs after the tests)
 #   make fmt-check  ruff format --check (make fmt applies it)
 #   make clean      remove build artifacts and caches (make distclean also removes .venv)
@@ -33,12 +35,13 @@ ORACLE_BASE_PYTHON ?= $(shell \
   done)
 
 .DEFAULT_GOAL := help
-.PHONY: help venv install run test explore lint fmt fmt-check clean distclean oracle-venv oracle-clean bench
+.PHONY: help venv install run test explore fuzz fuzz-long lint fmt fmt-check clean distclean oracle-venv oracle-clean bench
 
 help:
 	@echo "make run        install knitc into .venv and compile $(EXAMPLE) to Knitout"
 	@echo "make test       install knitc and its test extra into .venv, run pytest"
 	@echo "make explore    the test suite with fresh random hypothesis examples each run"
+	@echo "make fuzz       fuzz every target for FUZZ_TIME seconds (60);  make fuzz-long: 30 min each"
 	@echo "make lint       ruff check, ruff format --check and mypy on $(SRC)"
 	@echo "make fmt-check  ruff format --check $(SRC)   (make fmt: reformat)"
 	@echo "make venv       create .venv if missing;  make install: (re)install knitc into it"
@@ -79,6 +82,18 @@ explore: venv oracle-venv
 	@rm -rf build
 	$(PIP) install -q ".[test]"
 	KNITC_HYPOTHESIS=explore $(BIN)/python -m pytest
+
+# Fuzzing (tests/fuzz/run.py): each target under libFuzzer with fresh seeds, a crash, hang or
+# blow-up prints its reproducer and fails; then a sample of the compiled designs runs on the
+# independent machine. FUZZ_ARGS passes more (targets, --seed N, --timeout S).
+FUZZ_TIME ?= 60
+fuzz: venv oracle-venv
+	@rm -rf build
+	$(PIP) install -q ".[test,fuzz]"
+	$(BIN)/python tests/fuzz/run.py --time $(FUZZ_TIME) $(FUZZ_ARGS)
+
+fuzz-long:
+	$(MAKE) fuzz FUZZ_TIME=1800
 
 # Speed and memory of every example and of a scaling series (bench/results.json).
 bench: install oracle-venv

@@ -1,0 +1,80 @@
+"""One fuzzing process: atheris (libFuzzer) on one target, until libFuzzer stops it.
+
+Run by run.py, never by hand: `python engine.py TARGET SAMPLE_DIR -- LIBFUZZER_ARGS...`.
+libFuzzer owns the budgets: `-timeout` (seconds per input: a hang), `-rss_limit_mb` (a
+memory blow-up), `-max_total_time` (the run), `-seed`; an input that raises, hangs or
+blows up is written under `-artifact_prefix` and the process exits non-zero. libFuzzer
+ends the process itself (it never returns from `atheris.Fuzz`), which is why the oracle
+sample is checked by run.py afterwards, from the designs this process saved.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(HERE), str(HERE.parent)]  # targets, designs and tests/ helpers
+
+import atheris  # noqa: E402
+
+SAMPLE_LIMIT = 40
+"""Compiled designs kept for the independent machine: the first ones and then every 16th."""
+
+
+def _sampler(sample_dir: Path):
+    count = {"ok": 0}
+
+    def save(text: str, knitout: bytes) -> None:
+        count["ok"] += 1
+        n = count["ok"]
+        kept = sum(1 for _ in sample_dir.glob("*.knit"))
+        if kept < SAMPLE_LIMIT and (n <= 10 or n % 16 == 0):
+            name = hashlib.sha1(text.encode("utf-8", "surrogatepass")).hexdigest()[:12]
+            (sample_dir / f"{name}.knit").write_text(text, encoding="utf-8", errors="surrogatepass")
+
+    return save
+
+
+def main() -> None:
+    target, sample = sys.argv[1], Path(sys.argv[2])
+    sep = sys.argv.index("--")
+    sample.mkdir(parents=True, exist_ok=True)
+    with atheris.instrument_imports(include=["knitc"]):
+        import targets
+
+        import knitc.cli  # noqa: F401
+        from knitc import driver  # noqa: F401
+
+        _preload()
+    save = _sampler(sample)
+    if target == "design":
+        import designs
+
+        one = designs.fuzz_one(save)
+    else:
+        fn = targets.TARGETS[target]
+
+        def one(data: bytes) -> None:
+            fn(data)
+
+    atheris.Setup([sys.argv[0], *sys.argv[sep + 1 :]], one)
+    atheris.Fuzz()
+
+
+def _preload() -> None:
+    """Import every knitc module under instrumentation: the CLI imports its passes lazily,
+    and a module first imported outside `instrument_imports` gives no coverage feedback."""
+    import importlib
+    import pkgutil
+
+    import knitc
+
+    for info in pkgutil.walk_packages(knitc.__path__, "knitc."):
+        if not info.name.endswith("__main__"):  # it runs the CLI
+            importlib.import_module(info.name)
+
+
+if __name__ == "__main__":
+    main()
