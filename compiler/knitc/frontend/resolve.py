@@ -44,8 +44,10 @@ class _Resolver:
         diags: Diagnostics,
         defines: dict[str, ast.Node],
         loader: _Loader,
+        max_stitches: int = sk.MAX_STITCHES,
     ):
         self.module = module
+        self.max_stitches = max_stitches
         self.path = path
         self.diags = diags
         self.defines = defines
@@ -210,15 +212,16 @@ class _Resolver:
                 sides = 1 if n.tubular is False else 2
                 sizes[name] = int(cast(int, n.props["length"])) * math.ceil(width) * sides
         total = sum(sizes.values())
-        if total > sk.MAX_STITCHES:
+        if total > self.max_stitches:
             big = max(sizes, key=lambda k: sizes[k])
             node = nodes[big]
             self.diags.error(
                 "E512",
                 f"the design would have about {total:,} stitches (`{big}` alone {sizes[big]:,}); "
-                f"knitc compiles at most {sk.MAX_STITCHES:,}",
+                f"the limit is {self.max_stitches:,}",
                 node.prop_spans.get("length", node.span),
-                hint="a garment is tens of thousands of stitches: check `length` and `width`",
+                hint="a garment is tens of thousands of stitches: check `length` and `width`; "
+                "if the design is meant to be this large, raise it with --max-stitches",
             )
 
     def _collect_nodes(self) -> None:
@@ -689,11 +692,16 @@ def parse_define(text: str, diags: Diagnostics) -> tuple[str, ast.Node] | None:
 
 
 def resolve(
-    module: ast.Module, path: str, diags: Diagnostics, defines: dict[str, ast.Node] | None = None
+    module: ast.Module,
+    path: str,
+    diags: Diagnostics,
+    defines: dict[str, ast.Node] | None = None,
+    max_stitches: int = sk.MAX_STITCHES,
 ) -> sk.Skeleton | None:
-    """AST → skeleton IR. Returns None only if the module could not be resolved at all."""
+    """AST → skeleton IR. Returns None only if the module could not be resolved at all.
+    `max_stitches` is the E512 budget (`knitc --max-stitches`)."""
     loader = _Loader(diags)
-    skel = _Resolver(module, path, diags, defines or {}, loader).run()
+    skel = _Resolver(module, path, diags, defines or {}, loader, max_stitches).run()
     if skel is not None:
         sk.verify(skel, diags)
     return skel
