@@ -349,6 +349,15 @@ BAD = [
     ("in 3", "E915", 4, 5, "carrier 3 is already in"),
     ("out 4", "E915", 5, 6, "`out` of carrier 4, which is not in"),
     ("releasehook 3", "E915", 13, 14, "does not hold"),
+    # numbers beyond their limits
+    ("knit + f10001 3", "E913", 8, 14, "`f10001` is beyond any bed"),
+    ("knit + b-10001 3", "E913", 8, 15, "`b-10001` is beyond any bed"),
+    ("rack 20001", "E912", 6, 11, "racking 20001 is beyond any machine"),
+    ("rack -20000.5", "E912", 6, 14, "beyond any machine"),
+    ("stitch 10 1001", "E912", 11, 15, "stitch value 1001 is beyond"),
+    ("stitch -1000.5 10", "E912", 8, 15, "stitch value -1000.5 is beyond"),
+    ("x-stitch-number 256", "E912", 17, 20, "`x-stitch-number` 256 is beyond the machine's"),
+    ("x-speed-number 246", "E912", 16, 19, "`x-speed-number` 246 is beyond the machine's"),
 ]
 
 
@@ -370,11 +379,70 @@ def test_each_rule_rejects_a_bad_line_at_its_token(line, code, col, end, message
         (";!knitout-2\n;;Width: -5\n", 2, "`;;Width:` must be a positive integer"),
         (";!knitout-2\n;;Position: Middle\n", 2, "Left, Center, Right or Keep"),
         (";!knitout-2\n;;Carriers: 1 1\n", 2, "names a carrier twice"),
+        # beyond the limits (the hint says them)
+        (";!knitout-2\n;;Width: 542\n", 2, "the width is 1..541"),
+        (";!knitout-2\n;;Width: " + "9" * 5000 + "\n", 2, "the width is 1..541"),
+        (";!knitout-2\n;;Gauge: 100.5\n", 2, "at most 100"),
+        (";!knitout-2\n;;Gauge: " + "9" * 5000 + "\n", 2, "at most 100"),
+        (";!knitout-2\n;;Carriers: " + " ".join(map(str, range(65))) + "\n", 2, "at most 64"),
+        (";!knitout-2\n;;Carriers: 1 " + "c" * 33 + "\n", 2, "at most 32 characters"),
     ],
 )
 def test_header_errors(text, line, message):
     errors = errors_of(text)
-    assert errors[0].code == "E910" and errors[0].line == line and message in errors[0].message
+    e = errors[0]
+    assert e.code == "E910" and e.line == line and message in e.message + (e.hint or "")
+    assert len(e.message) < 200
+
+
+def test_a_magic_line_with_thousands_of_digits_is_a_newer_version():
+    warnings: list = []
+    parse_knitout(";!knitout-" + "9" * 5000 + "\n;;Carriers: 1\n", "v.k", warnings=warnings)
+    assert [w.code for w in warnings] == ["W910"]
+    assert "newer" in warnings[0].message and len(warnings[0].message) < 120
+    parse_knitout(";!knitout-0\n;;Carriers: 1\n", "v.k", warnings=(none := []))
+    assert none == []
+
+
+HUGE = "9" * 5000
+
+
+@pytest.mark.parametrize(
+    "line,token,hint",
+    [
+        (f"knit + f{HUGE} 3", 3, "needle numbers are read from -10000 to 10000"),
+        (f"xfer f1 b-{HUGE}", 3, "needle numbers are read from -10000 to 10000"),
+        (f"rack {HUGE}", 2, "racking is read up to 20000 either way"),
+        (f"rack -{HUGE}.5", 2, "racking is read up to 20000 either way"),
+        (f"stitch {HUGE} 10", 2, "stitch values are read from -1000 to 1000"),
+        (f"x-stitch-number {HUGE}", 2, "it takes 0..255"),
+        (f"x-speed-number +{HUGE}", 2, "it takes 0..245"),
+    ],
+)
+def test_a_number_of_thousands_of_digits_is_refused_at_its_token(line, token, hint):
+    """Python refuses to convert more than 4,300 digits (a ValueError, once a crash of
+    `knitc k2dat`); the reader judges the token by its length first. The message quotes
+    the number shortened, and the hint says the limit."""
+    errors = errors_of(HEADER + "in 3\n" + line + "\n")
+    assert len(errors) == 1
+    e = errors[0]
+    col = len(" ".join(line.split()[: token - 1])) + 2
+    assert (e.line, e.col, e.end_col) == (6, col, col + len(line.split()[token - 1]))
+    assert f"({len(line.split()[token - 1])} characters)" in e.message
+    assert len(e.message) < 120 and hint in e.hint
+
+
+def test_limits_are_inclusive():
+    prog = parse_knitout(
+        ";!knitout-2\n;;Width: 541\n;;Gauge: 100\n;;Carriers: 1 2 3\nin 3\n"
+        "knit + f10000 3\nknit + f-10000 3\nrack -20000\nrack 20000\nstitch -1000 1000\n"
+        "x-stitch-number 255\nx-speed-number 245\n",
+        "limits.k",
+        warnings=[],
+    )
+    assert prog.width == 541
+    assert [o.value for o in prog.ops[3:]] == [-20000, 20000, (-1000, 1000), 255, 245]
+    assert prog.ops[2].needle == Needle("f", -10000)
 
 
 def test_state_rules_follow_the_carriers():

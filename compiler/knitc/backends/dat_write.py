@@ -88,6 +88,12 @@ MAX_SIDE = 0xFFFE
 MAX_CARRIER = 10
 """A Shima DAT names carriers 1..10."""
 
+MAX_STITCH_NUMBER = 255
+"""Largest ``x-stitch-number``: it is written as one option-bar colour (R6)."""
+
+MAX_SPEED_NUMBER = 245
+"""Largest ``x-speed-number``: it is written plus 10 as one option-bar colour (L5, L6)."""
+
 STITCH_TABLE: dict[tuple[int, int], int] = {
     (-10, 10): 81,
     (0, 10): 82,
@@ -651,10 +657,10 @@ class _Writer:
                 self.stitch = number
             elif k == "stitch_number":
                 self.no_svs("change the stitch number")
-                self.stitch = self.setting(op.value, 255, "stitch number")
+                self.stitch = self.setting(op.value, MAX_STITCH_NUMBER, "stitch number")
             elif k == "speed":
                 self.no_svs("change the speed")
-                self.speed = self.setting(op.value, 245, "speed number")
+                self.speed = self.setting(op.value, MAX_SPEED_NUMBER, "speed number")
             elif k == "presser":
                 self.no_svs("change the presser mode")
                 if op.value not in ("on", "off", "auto"):

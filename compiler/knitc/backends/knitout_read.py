@@ -37,12 +37,15 @@ Rules checked here, as the spec states them (§1.7 "spec-level"); machine limits
 range and quarter pitch, needle range, loops, carriers left in, 3+ carriers per pass, the
 hook's direction) belong to `knitc.codegen.simulate` and the DAT writer:
 
-  E910  magic line, header syntax and values (Gauge > 0, Width a positive integer,
-        Position one of Left/Center/Right/Keep, Carriers names)
+  E910  magic line, header syntax and values (Gauge in (0, 100], Width 1..541, the
+        machine's needles, Position one of Left/Center/Right/Keep, Carriers: at most 64
+        names of at most 32 characters)
   E911  unknown operation (anything but the spec's opcodes and ``x-`` extensions)
   E912  arguments: wrong count, direction not ``+``/``-``, numbers (racking, stitch
-        values, extension values) malformed, presser mode not on/off/auto
-  E913  needle not ``f``/``b``/``fs``/``bs`` + integer (negative allowed)
+        values, extension values) malformed or beyond their limits (below), presser mode
+        not on/off/auto
+  E913  needle not ``f``/``b``/``fs``/``bs`` + integer (negative allowed), or its number
+        beyond +-10,000
   E914  carriers: not declared in the header, listed twice, none where some are needed
         (``in``, ``miss``, ...)
   E915  carrier state: using or taking out a carrier that is not in, bringing in one that
@@ -51,6 +54,12 @@ hook's direction) belong to `knitc.codegen.simulate` and the DAT writer:
         the current racking, or from a slider to a slider
   W910  reader warnings: newer Knitout version, unknown header, missing Carriers header,
         renamed carriers, CRLF line ends, ignored extension
+
+Every number is bounded where it is read, on its token, before it is converted, so that
+no input makes the reader (or anything after it) raise, allocate or compute without bound:
+needles +-`MAX_NEEDLE`, racking +-`MAX_RACKING`, ``stitch`` values +-`MAX_STITCH_VALUE`,
+``x-stitch-number`` 0..255 and ``x-speed-number`` 0..245 (what the DAT's option bars hold),
+the headers as above. The limits are beyond any machine; each error says its limit.
 
 Errors are collected (up to `MAX_ERRORS`) and raised together as `KnitoutErrors`; the
 line parser keeps going after a bad line, skipping its op. `knitout_diagnostics` turns
@@ -69,6 +78,7 @@ from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 
+from knitc.backends.dat_write import MAX_SPEED_NUMBER, MAX_STITCH_NUMBER
 from knitc.codegen.machine import Machine, MachineProgram, Needle, Op
 from knitc.diagnostics import Diagnostics
 from knitc.source import SourceFile, Span
@@ -77,11 +87,32 @@ MAX_ERRORS = 100
 KNOWN_VERSION = 2
 POSITIONS = ("Left", "Center", "Right", "Keep")
 
+# Limits on every number the reader takes, checked on the token before it is converted (a
+# 5,000-digit needle is refused by its length, never handed to `int`, which raises past 4,300
+# digits and is quadratic below). Each is beyond any machine, so no knittable file hits one.
+MAX_NEEDLE = 10_000
+"""Largest |needle number|: the widest beds have about 2,000 needles (541 here), and a
+program may sit anywhere on one or be shifted by a bed's width."""
+MAX_RACKING = 2 * MAX_NEEDLE
+"""Largest |racking|: beyond it no two needles in the readable range face each other."""
+MAX_STITCH_VALUE = 1_000
+"""Largest |value| of ``stitch L T`` (the Shima table's values are -10..65)."""
+MAX_GAUGE = 100
+"""Largest ``;;Gauge:`` (needles per inch; the finest machines have about 20)."""
+MAX_CARRIERS = 64
+"""Most carriers in ``;;Carriers:`` (the largest machines have 32)."""
+MAX_CARRIER_NAME = 32
+"""Longest carrier name (names are echoed in messages, so they stay short)."""
+MAX_VERSION = 999
+"""Versions above this are not converted to compare with `KNOWN_VERSION`; still newer."""
+
 _MAGIC = re.compile(r";!knitout-(\d+)\Z")
 _NEEDLE = re.compile(r"(fs|bs|f|b)(-?[0-9]+)\Z")
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)\Z")
 _UINT = re.compile(r"\+?[0-9]+\Z")
 _TOKEN = re.compile(r"[^ \t\r\f\v]+")
+_SHOWN = 40
+"""Longest token quoted whole in a message (the source line under it shows the rest)."""
 
 
 # ---- errors -----------------------------------------------------------------------------------
@@ -99,6 +130,7 @@ class KnitoutError(ValueError):
         end_col: int | None = None,
         code: str = "E912",
         warning: bool = False,
+        hint: str | None = None,
     ) -> None:
         super().__init__(f"{line}:{col}: {message}")
         self.message = message
@@ -107,6 +139,7 @@ class KnitoutError(ValueError):
         self.end_col = end_col if end_col is not None else col + 1
         self.code = code
         self.warning = warning
+        self.hint = hint
 
     def span(self, path: str) -> Span:
         return Span(path, self.line, self.col, self.line, self.end_col)
@@ -134,9 +167,9 @@ def knitout_diagnostics(
     diags = Diagnostics()
     diags.add_source(SourceFile(path, text))
     for w in warnings:
-        diags.warning(w.code, w.message, w.span(path))
+        diags.warning(w.code, w.message, w.span(path), hint=w.hint)
     for e in errors:
-        diags.error(e.code, e.message, e.span(path))
+        diags.error(e.code, e.message, e.span(path), hint=e.hint)
     return diags
 
 
@@ -144,11 +177,35 @@ def knitout_diagnostics(
 
 
 def _number(text: str) -> int | float | None:
-    """A Knitout number (``2``, ``-0.75``, ``.25``) or None; ints when integral."""
+    """A Knitout number (``2``, ``-0.75``, ``.25``) or None; ints when integral. A huge one
+    is a huge float (or inf), never an error: callers compare it with their limit."""
     if _NUMBER.match(text) is None:
         return None
     v = float(text)
     return int(v) if v.is_integer() else v
+
+
+def _bounded_int(text: str, limit: int) -> int | None:
+    """The integer `text` (``[+-]?[0-9]+``) if |value| <= `limit`, else None, judged by its
+    digit count first so that no long number reaches `int`."""
+    digits = text.lstrip("+-").lstrip("0")
+    if len(digits) > len(str(limit)):
+        return None
+    v = int(text)
+    return v if -limit <= v <= limit else None
+
+
+def _newer(version: str) -> bool:
+    """Whether the magic line's version digits name a version above `KNOWN_VERSION`."""
+    v = _bounded_int(version, MAX_VERSION)
+    return v is None or v > KNOWN_VERSION
+
+
+def _shown(text: str) -> str:
+    """`text` for a message: whole when short, else its start and its length."""
+    if len(text) <= _SHOWN:
+        return text
+    return f"{text[: _SHOWN // 2]}... ({len(text)} characters)"
 
 
 _DIRS = {"+": 1, "-": -1}
@@ -175,8 +232,10 @@ class _Bad(Exception):
     """Internal: abandon the current line; `token` is the index of the offending token
     (-1: the whole instruction)."""
 
-    def __init__(self, message: str, token: int = -1, code: str = "E912") -> None:
-        self.message, self.token, self.code = message, token, code
+    def __init__(
+        self, message: str, token: int = -1, code: str = "E912", hint: str | None = None
+    ) -> None:
+        self.message, self.token, self.code, self.hint = message, token, code, hint
 
 
 @dataclass
@@ -220,9 +279,13 @@ class _Reader:
             return spans[0][0], spans[-1][1]
         return spans[token]
 
-    def error(self, message: str, token: int = -1, code: str = "E912") -> None:
+    def error(
+        self, message: str, token: int = -1, code: str = "E912", hint: str | None = None
+    ) -> None:
         col, end = self._columns(token)
-        self.errors.append(KnitoutError(message, self.lineno, col, end_col=end, code=code))
+        self.errors.append(
+            KnitoutError(message, self.lineno, col, end_col=end, code=code, hint=hint)
+        )
         if len(self.errors) >= MAX_ERRORS:
             raise _TooMany
 
@@ -246,12 +309,13 @@ class _Reader:
         m = _MAGIC.match(self.raw)
         if m is None:
             self.error(
-                f"the first line must be the Knitout magic `;!knitout-2`, not `{self.raw[:40]}`",
+                f"the first line must be the Knitout magic `;!knitout-2`, not `{_shown(self.raw)}`",
                 code="E910",
             )
-        elif int(m.group(1)) > KNOWN_VERSION:
+        elif _newer(m.group(1)):
             self.warn(
-                f"Knitout version {m.group(1)} is newer than the {KNOWN_VERSION} this reader knows"
+                f"Knitout version {_shown(m.group(1))} is newer than the {KNOWN_VERSION} "
+                "this reader knows"
             )
         # without the magic, the first line is still read as what it looks like
         i = 1 if m is not None or self.raw.startswith(";") and not self.raw.startswith(";;") else 0
@@ -263,7 +327,7 @@ class _Reader:
             self.lineno, self.raw, self.code = i + 1, raw, raw
             name, value = raw[2:].split(": ", 1)
             if name in seen:
-                self.warn(f"header `{name}` given twice; the last value is used")
+                self.warn(f"header `{_shown(name)}` given twice; the last value is used")
             seen.add(name)
             self._header_line(h, name, value.strip())
             i += 1
@@ -277,8 +341,8 @@ class _Reader:
         return h, i
 
     def _header_line(self, h: _Header, name: str, value: str) -> None:
-        def bad(msg: str) -> None:
-            self.error(f"`;;{name}:` {msg}, not `{value}`", code="E910")
+        def bad(msg: str, hint: str | None = None) -> None:
+            self.error(f"`;;{_shown(name)}:` {msg}, not `{_shown(value)}`", code="E910", hint=hint)
 
         if name == "Carriers":
             names = [
@@ -286,6 +350,16 @@ class _Reader:
             ]
             if not names or any(not n for n in names):
                 return bad("needs carrier names separated by spaces")
+            if len(names) > MAX_CARRIERS:
+                return bad(
+                    f"names {len(names)} carriers",
+                    f"at most {MAX_CARRIERS} are read; the largest machines have 32",
+                )
+            if any(len(n) > MAX_CARRIER_NAME for n in names):
+                return bad(
+                    "has a carrier name that is too long",
+                    f"carrier names are at most {MAX_CARRIER_NAME} characters",
+                )
             if len(set(names)) != len(names):
                 return bad("names a carrier twice")
             h.carriers = names
@@ -298,21 +372,29 @@ class _Reader:
             h.machine = value or h.machine
         elif name == "Gauge":
             g = _number(value)
-            if g is None or g <= 0:
-                return bad("must be a number greater than zero")
+            if g is None or not 0 < g <= MAX_GAUGE:
+                return bad(
+                    "must be a number greater than zero",
+                    f"the gauge is needles per inch, at most {MAX_GAUGE}",
+                )
             h.gauge = g
         elif name == "Position":
             if value not in POSITIONS:
                 return bad("must be Left, Center, Right or Keep")
             h.position = value
         elif name == "Width":
-            if not value.isdigit() or not value.isascii() or int(value) <= 0:
-                return bad("must be a positive integer (the bed width in needles)")
-            h.width = int(value)
+            needles = Machine().needles
+            w = _bounded_int(value, needles) if value.isascii() and value.isdigit() else None
+            if w is None or w <= 0:
+                return bad(
+                    "must be a positive integer (the bed width in needles)",
+                    f"the machine's beds have {needles} needles, so the width is 1..{needles}",
+                )
+            h.width = w
         elif name.startswith(("Yarn-", "X-")):
             pass
         else:
-            self.warn(f"unknown header `;;{name}:` ignored")
+            self.warn(f"unknown header `;;{_shown(name)}:` ignored")
 
     # -- body ---------------------------------------------------------------------------------
 
@@ -325,12 +407,21 @@ class _Reader:
             m = _NEEDLE.match(t)
             if m is None:
                 raise _Bad(
-                    f"`{t}` is not a needle (f, b, fs or bs followed by an integer, "
+                    f"`{_shown(t)}` is not a needle (f, b, fs or bs followed by an integer, "
                     "e.g. f12, b-3, fs0)",
                     k,
                     "E913",
                 )
-            n = self.needles[t] = Needle(m.group(1), int(m.group(2)))
+            index = _bounded_int(m.group(2), MAX_NEEDLE)
+            if index is None:
+                raise _Bad(
+                    f"needle `{_shown(t)}` is beyond any bed",
+                    k,
+                    "E913",
+                    f"needle numbers are read from -{MAX_NEEDLE} to {MAX_NEEDLE}; the "
+                    f"machine has {Machine().needles} needles per bed",
+                )
+            n = self.needles[t] = Needle(m.group(1), index)
         return n
 
     def carriers(self, tokens: list[str], k: int) -> tuple[int, ...]:
@@ -343,7 +434,7 @@ class _Reader:
                 c = names.get(t)
                 if c is None:
                     raise _Bad(
-                        f"carrier `{t}` is not declared in the `;;Carriers:` header "
+                        f"carrier `{_shown(t)}` is not declared in the `;;Carriers:` header "
                         f"({' '.join(names)})",
                         j,
                         "E914",
@@ -359,7 +450,7 @@ class _Reader:
             raise _Bad(f"`{tokens[0]}` needs a direction: {_ARITY_HINT[tokens[0]]}")
         d = _DIRS.get(tokens[1])
         if d is None:
-            raise _Bad(f"direction must be `+` or `-`, not `{tokens[1]}`", 1)
+            raise _Bad(f"direction must be `+` or `-`, not `{_shown(tokens[1])}`", 1)
         return d
 
     def use(self, cs: tuple[int, ...], tokens: list[str], first: int) -> None:
@@ -449,7 +540,7 @@ class _Reader:
             try:
                 op = self.instruction(tokens, span)
             except _Bad as bad:
-                self.error(bad.message, bad.token, bad.code)
+                self.error(bad.message, bad.token, bad.code, bad.hint)
                 continue
             except _Warn as w:
                 self.warn(w.message, 0)
@@ -504,35 +595,57 @@ class _Reader:
             self.arity(t, 2)
             r = _number(t[1])
             if r is None:
-                raise _Bad(f"racking must be a number (e.g. 1, -2, 0.25), not `{t[1]}`", 1)
+                raise _Bad(f"racking must be a number (e.g. 1, -2, 0.25), not `{_shown(t[1])}`", 1)
+            if abs(r) > MAX_RACKING:
+                raise _Bad(
+                    f"racking {_shown(t[1])} is beyond any machine",
+                    1,
+                    hint=f"racking is read up to {MAX_RACKING} either way (no two needles "
+                    f"of -{MAX_NEEDLE}..{MAX_NEEDLE} face each other further); the machine "
+                    f"racks at most {Machine().racking_limit}",
+                )
             self.racking = r
             return Op("rack", value=r, span=span)
         if op == "stitch":
             self.arity(t, 3)
             lead, tight = _number(t[1]), _number(t[2])
             if lead is None or tight is None:
-                raise _Bad(
-                    f"stitch values must be numbers, not `{t[1 if lead is None else 2]}`",
-                    1 if lead is None else 2,
-                )
+                k = 1 if lead is None else 2
+                raise _Bad(f"stitch values must be numbers, not `{_shown(t[k])}`", k)
+            for k, v in ((1, lead), (2, tight)):
+                if abs(v) > MAX_STITCH_VALUE:
+                    raise _Bad(
+                        f"stitch value {_shown(t[k])} is beyond any machine's settings",
+                        k,
+                        hint=f"stitch values are read from -{MAX_STITCH_VALUE} to "
+                        f"{MAX_STITCH_VALUE}; the Shima table's pairs are like `stitch 10 15`",
+                    )
             return Op("stitch", value=(lead, tight), span=span)
         if op == "x-stitch-number" or op == "x-speed-number":
             self.arity(t, 2)
             if _UINT.match(t[1]) is None:
-                raise _Bad(f"`{op}` takes a non-negative integer, not `{t[1]}`", 1)
-            kind = "stitch_number" if op == "x-stitch-number" else "speed"
-            return Op(kind, value=int(t[1]), span=span)
+                raise _Bad(f"`{op}` takes a non-negative integer, not `{_shown(t[1])}`", 1)
+            stitch = op == "x-stitch-number"
+            top = MAX_STITCH_NUMBER if stitch else MAX_SPEED_NUMBER
+            value = _bounded_int(t[1], top)
+            if value is None:
+                raise _Bad(
+                    f"`{op}` {_shown(t[1])} is beyond the machine's table",
+                    1,
+                    hint=f"it takes 0..{top} (the value is one colour of a DAT option bar)",
+                )
+            return Op("stitch_number" if stitch else "speed", value=value, span=span)
         if op == "x-presser-mode":
             self.arity(t, 2)
             if t[1] not in ("on", "off", "auto"):
-                raise _Bad(f"presser mode must be on, off or auto, not `{t[1]}`", 1)
+                raise _Bad(f"presser mode must be on, off or auto, not `{_shown(t[1])}`", 1)
             return Op("presser", value=t[1], span=span)
         if op == "pause":
             self.arity(t, 1)
             return Op("pause", span=span)
         if op.startswith("x-"):
-            raise _Warn(f"extension `{op}` is not supported; ignored")
-        raise _Bad(f"unknown operation `{op}`", 0, "E911")
+            raise _Warn(f"extension `{_shown(op)}` is not supported; ignored")
+        raise _Bad(f"unknown operation `{_shown(op)}`", 0, "E911")
 
     def carrier_op(self, t: list[str], span: Span) -> Op:
         op = t[0]
