@@ -424,3 +424,54 @@ def test_a_byte_order_mark_is_not_a_character_of_the_design(tmp_path, capsys):
     f.write_bytes(b"\xef\xbb\xbftube t { length: 2 }\n")
     assert main(["check", str(f)]) == 0
     assert main(["fmt", "--check", str(f)]) == 0
+
+
+# ---- limits and folders (docs/security.md) -----------------------------------------------------
+
+
+def test_max_stitches_lowers_and_raises_the_budget(capsys, write):
+    path = write("tube a { length: 4 width: 4 }\n")  # 32 stitches
+    code, _, err = run(capsys, "check", "--max-stitches", "31", path)
+    assert code == 1 and "error[E512]" in err and "the limit is 31" in err
+    assert "raise it with --max-stitches" in err
+    assert run(capsys, "check", "--max-stitches", "32", path)[0] == 0
+    assert run(capsys, "--max-stitches", "31", "--until", "skeleton", path)[0] == 1
+
+
+@pytest.mark.parametrize("value", ["0", "-5", "many"])
+def test_max_stitches_must_be_a_positive_whole_number(capsys, write, value):
+    code, _, err = run(capsys, "check", "--max-stitches", value, write(GOOD))
+    assert code == 2 and "--max-stitches" in err
+
+
+def test_include_may_come_before_the_subcommand(capsys, tmp_path):
+    (tmp_path / "lib").mkdir()
+    (tmp_path / "lib" / "l.knit").write_text("pattern p() { set P where all() }\n")
+    (tmp_path / "d").mkdir()
+    design = tmp_path / "d" / "x.knit"
+    design.write_text('import "../lib/l.knit"\ntube a { length: 2 width: 2 }\n')
+    assert run(capsys, "check", str(design))[0] == 1  # E226 without the folder
+    assert run(capsys, "--include", str(tmp_path / "lib"), "check", str(design))[0] == 0
+
+
+def test_an_output_device_is_written_in_place_and_fmt_keeps_a_symlinked_design(tmp_path, capsys):
+    import os
+    import stat
+
+    from knitc.cli import write_atomic
+
+    write_atomic("/dev/null", "x\n")  # never replaced by a regular file (as root it could be)
+    assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
+    real, link = tmp_path / "real.knit", tmp_path / "link.knit"
+    real.write_text("tube t {length: 2}\n")
+    link.symlink_to(real.name)
+    assert main(["fmt", "-i", str(link)]) == 0
+    assert link.is_symlink() and real.read_text() == "tube t { length: 2 }\n"
+
+
+def test_an_output_through_a_symlink_to_the_input_is_refused(capsys, write, tmp_path):
+    path = write(GOOD)
+    (tmp_path / "out.k").symlink_to(path)
+    code, _, err = run(capsys, path, "-o", str(tmp_path / "out.k"))
+    assert code == 1 and "error[E002]" in err and "is the input file" in err
+    assert (tmp_path / "f.knit").read_text() == GOOD

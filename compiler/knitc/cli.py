@@ -26,6 +26,7 @@ from knitc.driver import (
     emit_text,
     timing_table,
 )
+from knitc.frontend.skeleton import MAX_STITCHES
 
 EXAMPLES = """\
 examples:
@@ -78,6 +79,49 @@ def _common(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _positive_int(text: str) -> int:
+    """An argparse type: a whole number above 0 (a mistake is a usage error, exit 2)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, not {value}")
+    return value
+
+
+def _folder(text: str) -> str:
+    """An argparse type: an existing directory (an `--include` that names nothing would
+    silently allow nothing)."""
+    if not os.path.isdir(text):
+        raise argparse.ArgumentTypeError(f"not a directory: {text!r}")
+    return text
+
+
+def _reading(p: argparse.ArgumentParser, stitches: bool = True) -> None:
+    """The options of the commands that compile a design: what it may read, how large it
+    may be (docs/security.md)."""
+    p.add_argument(
+        "--include",
+        dest="include",
+        action="append",
+        default=[],
+        type=_folder,
+        metavar="DIR",
+        help="a folder, besides the design's own, that its imports and images may read "
+        "from; repeatable",
+    )
+    if not stitches:
+        return
+    p.add_argument(
+        "--max-stitches",
+        type=_positive_int,
+        default=MAX_STITCHES,
+        metavar="N",
+        help=f"refuse a design of more than N stitches (default {MAX_STITCHES:,}; E512)",
+    )
+
+
 def _main_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="knitc",
@@ -124,6 +168,7 @@ def _main_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--version", action="version", version=f"knitc {__version__}")
     _common(p)
+    _reading(p)
     return p
 
 
@@ -135,6 +180,7 @@ def _check_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("file", metavar="FILE")
     _common(p)
+    _reading(p)
     return p
 
 
@@ -193,6 +239,7 @@ def _view_parser() -> argparse.ArgumentParser:
         help="the picture: .svg or .png (.html for --html)",
     )
     _common(p)
+    _reading(p, stitches=False)
     return p
 
 
@@ -369,7 +416,13 @@ def _cmd_compile(args: argparse.Namespace) -> int:
 
     with progress(sys.stderr.isatty() and not args.quiet, len(STAGES) + 1) as on_stage:
         result = compile_file(
-            args.file, defines=args.defines, until=until, werror=werror, on_stage=on_stage
+            args.file,
+            defines=args.defines,
+            until=until,
+            werror=werror,
+            on_stage=on_stage,
+            include=args.include,
+            max_stitches=args.max_stitches,
         )
     if any(d.code == "E408" for d in result.diagnostics):  # a command-line mistake
         _report(result.diagnostics, args.quiet)
@@ -492,6 +545,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
         defines=args.defines,
         compact=args.compact,
         three_d=args.three_d,
+        include=args.include,
     )
     if "error" in args.warn:
         diags.promote_warnings()
@@ -515,7 +569,12 @@ def _cmd_check(args: argparse.Namespace) -> int:
     # `check` runs the whole pipeline but writes nothing: a design that checks clean
     # compiles clean, and code generation's findings (E602, W60x, W80x) are reported too.
     result = compile_file(
-        args.file, defines=args.defines, werror="error" in args.warn, until=STAGES[-1].name
+        args.file,
+        defines=args.defines,
+        werror="error" in args.warn,
+        until=STAGES[-1].name,
+        include=args.include,
+        max_stitches=args.max_stitches,
     )
     _report(result.diagnostics, args.quiet)
     if args.time_passes:
@@ -559,6 +618,21 @@ def _cmd_fmt(args: argparse.Namespace) -> int:
     return status
 
 
+_VALUED = (
+    "-D",
+    "-o",
+    "--output",
+    "--emit",
+    "-W",
+    "--target",
+    "--until",
+    "--format",
+    "--include",
+    "--max-stitches",
+)
+"""Options that take the next argument as their value (which is then no subcommand)."""
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
@@ -568,11 +642,7 @@ def main(argv: list[str] | None = None) -> int:
                 i
                 for i, a in enumerate(argv)
                 if a in ("check", "fmt", "k2dat", "dat2k", "view", "lint")
-                and (
-                    i == 0
-                    or argv[i - 1]
-                    not in ("-D", "-o", "--output", "--emit", "-W", "--target", "--until")
-                )
+                and (i == 0 or argv[i - 1] not in _VALUED)
             ),
             None,
         )

@@ -25,6 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
+from knitc.access import ReadRoots, reading_below
 from knitc.codegen import machine as mp
 from knitc.diagnostics import Diagnostics, Note
 from knitc.frontend import ast
@@ -62,6 +63,11 @@ class Result:
     output: str | bytes | None = None
     stage_reached: str = "none"
     defines: dict[str, ast.Node] = field(default_factory=dict)
+    include: tuple[str, ...] = ()
+    """Folders besides the design's own that its imports and images may read (`--include`;
+    `access.ReadRoots`)."""
+    max_stitches: int = sk.MAX_STITCHES
+    """The stitch budget (E512, `--max-stitches`)."""
     timings: list[tuple[str, float]] = field(default_factory=list)
     """(stage, seconds) for every stage run, in order (`knitc --time-passes`)."""
 
@@ -100,7 +106,7 @@ def _resolve(r: Result) -> bool:
     from knitc.frontend.resolve import resolve
 
     assert r.module is not None
-    r.skeleton = resolve(r.module, r.path, r.diagnostics, r.defines)
+    r.skeleton = resolve(r.module, r.path, r.diagnostics, r.defines, r.max_stitches)
     return r.skeleton is not None
 
 
@@ -319,20 +325,21 @@ def resume(
     name of each stage as it starts (a progress display)."""
     names = [s.name for s in STAGES]
     plan = STAGES[: names.index(until) + 1] if until in names else STAGES + (stage(until),)
-    for step in plan[_index(result.stage_reached) :]:
-        if result.diagnostics.has_errors:
-            break
-        if on_stage is not None:
-            on_stage(step.name)
-        start = time.perf_counter()
-        ok = step.run(result)
-        if ok and step.verify is not None:
-            _verify(step.name, step.verify(result))
-        result.timings.append((step.name, time.perf_counter() - start))
-        if not ok:
-            break
-        if step.name in names:
-            result.stage_reached = step.name
+    with reading_below(ReadRoots.for_design(result.path, result.include)):
+        for step in plan[_index(result.stage_reached) :]:
+            if result.diagnostics.has_errors:
+                break
+            if on_stage is not None:
+                on_stage(step.name)
+            start = time.perf_counter()
+            ok = step.run(result)
+            if ok and step.verify is not None:
+                _verify(step.name, step.verify(result))
+            result.timings.append((step.name, time.perf_counter() - start))
+            if not ok:
+                break
+            if step.name in names:
+                result.stage_reached = step.name
     if result.werror:
         result.diagnostics.promote_warnings()
     return result
@@ -352,13 +359,23 @@ def compile_source(
     until: str = "skeleton",
     werror: bool = False,
     on_stage: Callable[[str], None] | None = None,
+    include: list[str] | tuple[str, ...] = (),
+    max_stitches: int = sk.MAX_STITCHES,
 ) -> Result:
     """Run the pipeline on `text` up to and including stage `until` (`on_stage`: see
-    `resume`)."""
+    `resume`). Imports and images may read below the folder of `path` and the `include`
+    folders only; `max_stitches` is the stitch budget (E512)."""
     from knitc.frontend.resolve import parse_define
 
     stage(until)  # a misspelt stage is a mistake of the caller, not "run everything"
-    result = Result(Diagnostics(), path=path, text=text, werror=werror)
+    result = Result(
+        Diagnostics(),
+        path=path,
+        text=text,
+        werror=werror,
+        include=tuple(include),
+        max_stitches=max_stitches,
+    )
     for d in defines:
         got = parse_define(d, result.diagnostics)
         if got is not None:

@@ -10,6 +10,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, cast
 
+from knitc.access import (
+    MAX_IMPORT_BYTES,
+    AccessProblem,
+    ReadRoots,
+    active_roots,
+    check_within,
+    read_regular,
+)
 from knitc.diagnostics import Diagnostics, Note
 from knitc.frontend import ast
 from knitc.frontend.parser import parse_source
@@ -117,6 +125,55 @@ class _Loader:
         self.diags = diags
         self.cache: dict[str, ast.Module | None] = {}
         self.loading: list[str] = []
+        self.roots: ReadRoots | None = None
+        """The folders imports may read: the running compilation's, else (a resolver run
+        outside the driver) the folder of the design, whose imports come first."""
+
+    def _read_file(self, imp: ast.Import, importer: str) -> tuple[str, str, str] | None:
+        """(cache key, name for messages, text) of the file `imp` names, or None after
+        reporting why it may not or cannot be read. Only a `.knit` file below the allowed
+        folders is read, so no error ever quotes a file that is not a design (a design
+        must not be able to print `/etc/passwd` or an environment into a build log)."""
+        assert imp.path is not None  # an import names a module or a file
+        if self.roots is None:
+            self.roots = active_roots() or ReadRoots.for_design(importer)
+        base = Path(importer).parent if not importer.startswith("<") else Path.cwd()
+        joined = base / imp.path
+        try:
+            real = check_within(str(joined), imp.path, self.roots, "imports")
+        except AccessProblem as problem:
+            self.diags.error("E226", problem.message, imp.span, hint=problem.hint)
+            return None
+        if not os.path.exists(real):
+            self.diags.error(
+                "E203",
+                f"cannot find `{imp.path}`",
+                imp.span,
+                hint=f"looked for {os.path.normpath(joined)}; "
+                "imports are relative to the importing file",
+            )
+            return None
+        if not real.endswith(".knit"):
+            self.diags.error(
+                "E226",
+                f"`{imp.path}` is not a design: an import reads a `.knit` file",
+                imp.span,
+                hint="import knitc modules (`.knit` files of definitions) or the standard "
+                "library (`import std.NAME`)",
+            )
+            return None
+        try:
+            data = read_regular(real, imp.path, MAX_IMPORT_BYTES)
+        except AccessProblem as problem:
+            self.diags.error("E203", problem.message, imp.span)
+            return None
+        try:
+            text = data.decode("utf-8-sig")  # a BOM some editors write is not text
+        except UnicodeDecodeError:
+            self.diags.error("E203", f"cannot read `{imp.path}`: it is not UTF-8 text", imp.span)
+            return None
+        display = str(joined) if not importer.startswith("<") else imp.path
+        return real, display, text
 
     def load_file(self, key: str, text: str, display: str) -> ast.Module | None:
         if key not in self.cache:
@@ -142,29 +199,11 @@ class _Loader:
                 (res.read_text(encoding="utf-8")),
             )
         else:
-            assert imp.path is not None  # an import names a module or a file
-            base = Path(importer).parent if not importer.startswith("<") else Path.cwd()
-            path = (base / imp.path).resolve()
-            if not path.is_file():
-                self.diags.error(
-                    "E203",
-                    f"cannot find `{imp.path}`",
-                    imp.span,
-                    hint=f"looked for {os.path.normpath(base / imp.path)}; "
-                    "imports are relative to the importing file",
-                )
+            found = self._read_file(imp, importer)
+            if found is None:
                 defs.failed_import(imp)
                 return
-            key, display = (
-                str(path),
-                str(base / imp.path) if not importer.startswith("<") else imp.path,
-            )
-            try:
-                text = path.read_text(encoding="utf-8")
-            except (OSError, UnicodeDecodeError) as exc:
-                self.diags.error("E203", f"cannot read `{imp.path}`: {exc}", imp.span)
-                defs.failed_import(imp)
-                return
+            key, display, text = found
         if key in self.loading:
             self.diags.error(
                 "E206",

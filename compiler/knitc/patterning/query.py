@@ -494,10 +494,10 @@ class _Eval:
             values = raster.image_channel(str(path), channel)
         except raster.ImageProblem as err:
             raise QueryError(
-                "E713",
+                err.code,
                 str(err),
                 fa.span,
-                hint="image paths are relative to the file that names them",
+                hint=err.hint or "image paths are relative to the file that names them",
             ) from None
         return np.where(values >= threshold, 0, raster.OFF).astype(np.int64)
 

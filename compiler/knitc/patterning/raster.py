@@ -29,11 +29,15 @@ numpy version.
 
 from __future__ import annotations
 
+import io
 import math
+import os
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
+from knitc.access import MAX_IMAGE_BYTES, AccessProblem, active_roots, check_within, read_regular
 from knitc.frontend import ast
 from knitc.shaping.stitch_graph import INSTRUCTIONS
 
@@ -117,30 +121,64 @@ MAX_PIXELS = 4096 * 4096
 
 
 class ImageProblem(Exception):
-    """An image that cannot be used; the message says why (for a located diagnostic)."""
+    """An image that cannot be used; the message says why (for a located diagnostic):
+    `code` E713 (unreadable) or E226 (outside the folders the design may read)."""
+
+    def __init__(self, message: str, code: str = "E713", hint: str | None = None):
+        super().__init__(message)
+        self.code, self.hint = code, hint
+
+
+def _image_bytes(path: str) -> bytes:
+    """The file at `path` under the running compilation's access rules (see `access`)."""
+    roots = active_roots()
+    try:
+        real = check_within(path, path, roots, "images") if roots is not None else path
+        if not os.path.exists(real):
+            raise ImageProblem(f"no image file `{path}`")
+        return read_regular(real, path, MAX_IMAGE_BYTES)
+    except AccessProblem as problem:
+        code = "E226" if problem.refused else "E713"
+        raise ImageProblem(problem.message, code, problem.hint) from None
+
+
+IMAGE_FORMATS = ("PNG", "JPEG", "GIF", "BMP")
+"""The formats `img()` decodes. Pillow would also open EPS (by running Ghostscript, an
+interpreter of PostScript programs) and dozens of rarer formats; a design is untrusted,
+so only these plain raster formats are parsed."""
 
 
 def image_channel(path: str, channel: str) -> np.ndarray:
-    """The channel of the image at `path` as floats in [0, 1], top row first."""
+    """The channel of the image at `path` as floats in [0, 1], top row first.
+
+    During a compilation the path must lie below its folders (`access.ReadRoots`); only a
+    regular file of at most `access.MAX_IMAGE_BYTES` is read (a FIFO never blocks, a device
+    is never read), and an image of more than `MAX_PIXELS` is refused from its header,
+    before its pixels are decoded (a small file can hold a decompression bomb)."""
     try:
         from PIL import Image, UnidentifiedImageError
     except ImportError as err:  # pragma: no cover - Pillow is a dependency
         raise ImageProblem("reading images needs Pillow (pip install Pillow)") from err
+    data = _image_bytes(path)
     try:
-        with Image.open(path) as im:
-            if im.width * im.height > MAX_PIXELS:
-                raise ImageProblem(
-                    f"the image is {im.width}x{im.height} pixels; a pattern "
-                    f"image may have at most {MAX_PIXELS} pixels"
-                )
-            rgba = np.asarray(im.convert("RGBA"), dtype=np.float64) / 255.0
-    except FileNotFoundError as err:
-        raise ImageProblem(f"no image file `{path}`") from err
-    except IsADirectoryError as err:
-        raise ImageProblem(f"`{path}` is a directory, not an image") from err
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            with Image.open(io.BytesIO(data), formats=IMAGE_FORMATS) as im:
+                if im.width * im.height > MAX_PIXELS:
+                    raise ImageProblem(
+                        f"the image is {im.width}x{im.height} pixels; a pattern "
+                        f"image may have at most {MAX_PIXELS} pixels"
+                    )
+                rgba = np.asarray(im.convert("RGBA"), dtype=np.float64) / 255.0
     except UnidentifiedImageError as err:
-        raise ImageProblem(f"`{path}` is not an image Pillow can read (use PNG or JPEG)") from err
-    except (OSError, ValueError, Image.DecompressionBombError) as err:
+        raise ImageProblem(
+            f"`{path}` is not an image knitc reads (use PNG, JPEG, GIF or BMP)"
+        ) from err
+    except (Image.DecompressionBombError, Image.DecompressionBombWarning) as err:
+        raise ImageProblem(
+            f"`{path}` is too large an image; a pattern image may have at most {MAX_PIXELS} pixels"
+        ) from err
+    except (OSError, ValueError, EOFError, SyntaxError) as err:  # Pillow's decoders raise these
         raise ImageProblem(f"cannot read `{path}`: {err}") from err
     if channel in "rgba":
         return rgba[:, :, "rgba".index(channel)]

@@ -31,6 +31,7 @@ def render_file(
     defines: list[str] | tuple[str, ...] = (),
     compact: bool = False,
     three_d: bool = False,
+    include: list[str] | tuple[str, ...] = (),
 ) -> tuple[Diagnostics, bytes | None]:
     """The bytes of `view` of the design or Knitout at `path`, in the format of `ext`
     (".svg", ".png", ".html"); None with the reasons in the diagnostics."""
@@ -49,7 +50,7 @@ def render_file(
         return diags, None
     from knitc.view.source import load
 
-    got = load(path, defines)
+    got = load(path, defines, include)
     if got.input is None:
         return got.diagnostics, None
     fmt = ext.lstrip(".")

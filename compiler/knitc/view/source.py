@@ -41,9 +41,12 @@ class Loaded:
     input: ViewInput | None
 
 
-def load(path: str, defines: list[str] | tuple[str, ...] = ()) -> Loaded:
+def load(
+    path: str, defines: list[str] | tuple[str, ...] = (), include: list[str] | tuple[str, ...] = ()
+) -> Loaded:
     """Compile `path` (.knit) through the machine stage, or read it as Knitout (.k, or any
-    file starting with `;!knitout-`), and simulate the program."""
+    file starting with `;!knitout-`), and simulate the program. `include`: folders the
+    design's imports and images may read besides its own (`--include`)."""
     from knitc.codegen.simulate import simulate
 
     if _is_knitout(path):
@@ -55,7 +58,7 @@ def load(path: str, defines: list[str] | tuple[str, ...] = ()) -> Loaded:
         return Loaded(diags, ViewInput(path, prog, simulate(prog), diagnostics=diags))
     from knitc.driver import compile_file
 
-    result = compile_file(path, defines=list(defines), until="machine")
+    result = compile_file(path, defines=list(defines), until="machine", include=list(include))
     if not result.ok or result.program is None:
         return Loaded(result.diagnostics, None)
     return Loaded(
