@@ -125,12 +125,16 @@ def _pattern_stmt(draw, nodes: list[str], actions: list[str], pats: list[tuple[s
         return f"use {draw(st.sampled_from(ACTIONS + actions))}{where}"
     if kind == "apply" and pats:
         _, name = draw(st.sampled_from(pats))
-        args = ", ".join(draw(NUMBERS) for _ in range(draw(st.integers(0, 2))))
+        n_args = draw(st.sampled_from([0, 0, 1, 1, 2, 3]))  # mostly in range, sometimes not
+        args = ", ".join(str(draw(st.integers(1, 6))) for _ in range(n_args))
         return f"apply {name}({args}){where}"
     if kind == "let":
         return f"let sel{draw(st.integers(0, 3))} = {_query(draw, nodes)}"
     layer = draw(st.sampled_from(["draw", "stretch", "tile"]))
-    return f"{layer} {_grid(draw, [*INSTRUCTIONS, '.', '.', 'K', 'P'])}{where}"
+    cells = [*INSTRUCTIONS, ".", ".", "K", "P"]
+    if layer == "stretch" and draw(st.integers(0, 5)):  # crosses cannot stretch (E315)
+        cells = [c for c in cells if not c.startswith("X")]
+    return f"{layer} {_grid(draw, cells)}{where}"
 
 
 _ACTION_CALLS = [
@@ -245,7 +249,7 @@ def designs(draw) -> Design:
         target = draw(st.sampled_from([*nodes, "before", "after"]))
         body = [_pattern_stmt(draw, nodes, actions, pats) for _ in range(draw(st.integers(1, 5)))]
         items.append(f"pattern {target} {{\n  " + "\n  ".join(body) + "\n}")
-    if draw(st.booleans()):
+    if "machine {" not in prog.text and draw(st.booleans()):
         items.append(_machine(draw))
     order = draw(st.permutations(items[1:])) if draw(st.booleans()) else items[1:]
     text = "\n".join([items[0], *order]) + "\n"
