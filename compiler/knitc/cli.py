@@ -499,9 +499,10 @@ def _cmd_k2dat(args: argparse.Namespace) -> int:
 def _cmd_dat2k(args: argparse.Namespace) -> int:
     import json
 
-    from knitc.backends.dat_format import DatError, decode, rows
-    from knitc.backends.dat_read import DatReadError, dat_to_program
+    from knitc.backends.dat_format import DatError, read_raster, rows
+    from knitc.backends.dat_read import read_dat, width_limit
     from knitc.backends.knitout import write_knitout
+    from knitc.codegen.machine import Machine
 
     if not _output_ok(args.output, (args.file,)):
         return 1
@@ -509,24 +510,20 @@ def _cmd_dat2k(args: argparse.Namespace) -> int:
     if data is None:
         return 1
     assert isinstance(data, bytes)
-    try:
-        image = decode(data)
-        if args.passes:
-            text = (
-                json.dumps(
-                    {
-                        "width": image.width,
-                        "height": image.height,
-                        "rows": [r.to_json() for r in rows(image)],
-                    }
-                )
-                + "\n"
-            )
-        else:
-            text = write_knitout(dat_to_program(image))
-    except (DatError, DatReadError) as exc:
-        sys.stderr.write(f"{args.file}: error[E902]: not a DAT file knitc can read: {exc}\n")
-        return 1
+    if args.passes:  # every raster row as it is, whatever its layout
+        try:
+            height, width = read_raster(data, max_width=width_limit(Machine())).shape
+            table = [r.to_json() for r in rows(data)]
+        except DatError as exc:
+            sys.stderr.write(f"{args.file}: error[E902]: not a DAT file knitc can read: {exc}\n")
+            return 1
+        text = json.dumps({"width": width, "height": height, "rows": table}) + "\n"
+    else:
+        prog, diags = read_dat(data, args.file)
+        if prog is None:
+            _report(diags, args.quiet)
+            return 1
+        text = write_knitout(prog)
     if args.output:
         return 0 if _write(args.output, text) else 1
     sys.stdout.write(text)

@@ -5,7 +5,7 @@ A Shima DAT is an indexed-colour raster (shared/research/knitout-and-dat.md §2.
     0x000  u16 LE x-min = 0, y-min = 0, x-max = W - 1, y-max = H - 1, 1000, (zero), 1000 at 0x010
     0x200  the fixed 768-byte palette (display only, but kept byte-identical to the converter's)
     0x500  zero padding
-    0x600  run-length pairs (colour, length 1..255), row by row, bottom row first
+    0x600  run-length pairs (colour, length 0..255), row by row, bottom row first
 
 and the raster is laid out around the P = max_slot - min_slot + 1 slot columns and the N passes:
 W = P + 110 (10 margin, 40 option bar, 4 gap, 1 stop-mark column on each side) and H = N + 19
@@ -27,11 +27,13 @@ Conventions a reader has to choose, because the raster does not record them:
 not carry it; with ``strict=True`` it also rejects what `DatImage` does not model at all (header
 words, palette, a non-canonical run-length form), so that ``encode(decode(b, strict=True)) == b``.
 
-The runs `encode` writes are the canonical greedy form, which is the converter's in all but one
-case: after a run of exactly 255 followed by another colour in the same row, the converter also
-writes a 0-length run (seen in pass rows with 255-slot gaps, i.e. more than 255 slots). Readers
-skip it, so knitc writes the correct form; such a file decodes (not strictly) to the same image
-and re-encodes 2 bytes shorter per occurrence.
+The runs `encode` writes are the converter's, byte for byte: greedy, split at 255, never
+crossing a row end, plus one quirk: after a run whose length is a multiple of 255 and that
+another colour follows in the same row, the converter also writes a 0-length pair of the run's
+colour (a row of 255 transfers, a gap of 255 empty slots, a 245-slot design's width row).
+Readers skip it; `read_raster` accepts it, and with ``strict=True`` requires it where the
+converter writes it and nowhere else (the fixtures `rle_*` in tests/fixtures/dat/ are the
+converter's own files for these cases).
 """
 
 from __future__ import annotations
@@ -59,7 +61,14 @@ __all__ = ["DatError", "PALETTE", "decode", "encode", "pack", "read_raster", "re
 
 
 class DatError(ValueError):
-    """A DAT that cannot be read, or an image that cannot be written, with the reason."""
+    """A DAT that cannot be read, or an image that cannot be written, with the reason and,
+    when one pixel is to blame, its raster row `y` (0 = bottom) and column `x`, so that a
+    reader can point at it."""
+
+    def __init__(self, message: str, y: int | None = None, x: int | None = None) -> None:
+        super().__init__(message)
+        self.y = y
+        self.x = x
 
 
 # --- container ------------------------------------------------------------------------------
@@ -119,18 +128,24 @@ def _header(width: int, height: int) -> bytes:
 
 
 def _rle(raster: np.ndarray) -> bytes:
-    """Greedy run-length pairs, row by row: a run starts at every row start and every colour
-    change, and a run longer than 255 becomes 255-runs plus the remainder (never a 0-run)."""
+    """The converter's run-length pairs, row by row: a run starts at every row start and every
+    colour change, a run longer than 255 becomes 255-runs plus the remainder, and a run whose
+    length is a multiple of 255 and that another colour follows in its row also gets a
+    0-length pair of its colour. That last pair is what the converter's encoder writes (it
+    flushes at 255 and then flushes the empty run again at the colour change); readers skip
+    it, and writing it keeps knitc's DATs byte-identical with the converter's."""
     height, width = raster.shape
     flat = raster.reshape(-1)
     starts_mask = np.ones((height, width), dtype=bool)
     starts_mask[:, 1:] = raster[:, 1:] != raster[:, :-1]
     starts = np.flatnonzero(starts_mask)
     lengths = np.diff(starts, append=flat.size)
-    pieces = (lengths + MAX_RUN - 1) // MAX_RUN
+    full = (lengths + MAX_RUN - 1) // MAX_RUN
+    empty = (lengths % MAX_RUN == 0) & ((starts + lengths) % width != 0)
+    pieces = full + empty
     out_lengths = np.full(int(pieces.sum()), MAX_RUN, dtype=np.int64)
     last = np.cumsum(pieces) - 1
-    out_lengths[last] = lengths - MAX_RUN * (pieces - 1)
+    out_lengths[last] = np.where(empty, 0, lengths - MAX_RUN * (full - 1))
     pairs = np.empty((out_lengths.size, 2), dtype=np.uint8)
     pairs[:, 0] = np.repeat(flat[starts], pieces)
     pairs[:, 1] = out_lengths
@@ -151,8 +166,10 @@ def _u16(data: bytes, offset: int) -> int:
     return int.from_bytes(data[offset : offset + 2], "little")
 
 
-def read_raster(data: bytes, *, strict: bool = False) -> np.ndarray:
-    """The raster of DAT bytes (row 0 = bottom). Checks the header sizes and that the runs fill
+def read_raster(data: bytes, *, strict: bool = False, max_width: int = MAX_SIDE) -> np.ndarray:
+    """The raster of DAT bytes (row 0 = bottom). Checks the header sizes (width at most
+    `max_width`: a reader passes its bed plus the margins, so a header asking for more than
+    any machine knits is refused before the raster is allocated) and that the runs fill
     exactly W x H pixels; `strict` also wants the converter's header words, palette, padding and
     canonical (greedy, per-row) runs, i.e. ``pack(read_raster(b, strict=True)) == b``."""
     data = bytes(data)
@@ -166,6 +183,12 @@ def read_raster(data: bytes, *, strict: bool = False) -> np.ndarray:
     if x_min or y_min:
         raise DatError(f"DAT header gives x-min {x_min}, y-min {y_min}; only 0, 0 is supported")
     width, height = x_max + 1, y_max + 1
+    if width > max_width or height > MAX_SIDE:
+        raise DatError(
+            f"DAT header gives a {width} x {height} raster; the largest this reader takes is "
+            f"{max_width} x {MAX_SIDE} (the bed's needles plus {2 * SIDE} columns of margins "
+            "and option bars)"
+        )
     if strict:
         _check_container(data)
     runs = np.frombuffer(data, dtype=np.uint8, offset=HEADER_SIZE).reshape(-1, 2)
@@ -185,7 +208,8 @@ def read_raster(data: bytes, *, strict: bool = False) -> np.ndarray:
     if strict and _rle(raster) != data[HEADER_SIZE:]:
         raise DatError(
             "DAT run-length data is not in the canonical form (one greedy run per "
-            "colour change, split at 255, never crossing a row end)"
+            "colour change, split at 255, never crossing a row end, a 0-length run "
+            "after a multiple of 255 that another colour follows)"
         )
     return raster
 
@@ -439,7 +463,9 @@ def _read_passes(raster: np.ndarray, p: int, n: int, min_slot: int) -> list[DatP
     if (i := _first(stops != 2)) is not None:
         raise DatError(
             f"{_describe(PASS_Y + i, SLOT_X, p, n)}: a pass row has "
-            f"{stops[i]} stop marks ({STOP}) over its slots, not 2"
+            f"{stops[i]} stop marks ({STOP}) over its slots, not 2",
+            y=PASS_Y + i,
+            x=SLOT_X,
         )
     first = np.argmax(stop, axis=1)
     last = band.shape[1] - 1 - np.argmax(stop[:, ::-1], axis=1)
@@ -452,7 +478,9 @@ def _read_passes(raster: np.ndarray, p: int, n: int, min_slot: int) -> list[DatP
     if (i := _first(loose)) is not None:
         raise DatError(
             f"{_describe(PASS_Y + i, SLOT_X, p, n)}: the stop marks of a pass "
-            "must sit right next to its first and last slot"
+            "must sit right next to its first and last slot",
+            y=PASS_Y + i,
+            x=SLOT_X,
         )
     cols = np.arange(band.shape[1])
     inside = (cols > first[:, None]) & (cols < last[:, None])
@@ -461,7 +489,9 @@ def _read_passes(raster: np.ndarray, p: int, n: int, min_slot: int) -> list[DatP
         i, c = stray[0]
         raise DatError(
             f"{_describe(PASS_Y + int(i), SLOT_X - 1 + int(c), p, n)}: colour "
-            f"{band[i, c]} outside the pass's stop marks"
+            f"{band[i, c]} outside the pass's stop marks",
+            y=PASS_Y + int(i),
+            x=SLOT_X - 1 + int(c),
         )
     ri, ci = np.nonzero(inside & (band != 0))
     slot_list = (ci - 1 + min_slot).tolist()
@@ -473,12 +503,16 @@ def _read_passes(raster: np.ndarray, p: int, n: int, min_slot: int) -> list[DatP
     if (i := _first(direction != body[:, r_x[0] - 1])) is not None:
         raise DatError(
             f"{_describe(PASS_Y + i, 49, p, n)}: direction code "
-            f"{direction[i]} differs from the right bar's {body[i, r_x[0] - 1]}"
+            f"{direction[i]} differs from the right bar's {body[i, r_x[0] - 1]}",
+            y=PASS_Y + i,
+            x=49,
         )
     if (i := _first(~np.isin(direction, (RIGHT, LEFT, NONE)))) is not None:
         raise DatError(
             f"{_describe(PASS_Y + i, 49, p, n)}: direction code "
-            f"{direction[i]} is not {RIGHT}, {LEFT} or {NONE}"
+            f"{direction[i]} is not {RIGHT}, {LEFT} or {NONE}",
+            y=PASS_Y + i,
+            x=49,
         )
     lefts = body[:, _L_VALUE_X].tolist()
     rights = body[:, r_x].tolist()
@@ -500,21 +534,26 @@ def _read_passes(raster: np.ndarray, p: int, n: int, min_slot: int) -> list[DatP
     ]
 
 
-def decode(data: bytes, *, min_slot: int | None = None, strict: bool = False) -> DatImage:
+def decode(
+    data: bytes, *, min_slot: int | None = None, strict: bool = False, max_width: int = MAX_SIDE
+) -> DatImage:
     """The image of DAT bytes: the pass rows with the fixed courses stripped.
 
     Every pixel must be where the layout (module docstring) puts it; a DAT that is truncated,
     inconsistent or holds anything else raises DatError saying which row and column. Slots are
     numbered from `min_slot`, by default the position code if it is >= 1, else 1. With `strict`,
-    the container must also be exactly the converter's (so ``encode(decode(b)) == b``).
+    the container must also be exactly the converter's (so ``encode(decode(b)) == b``);
+    `max_width` bounds the raster's width (`read_raster`).
     """
-    raster = read_raster(data, strict=strict)
+    raster = read_raster(data, strict=strict, max_width=max_width)
     p, n = _geometry(raster)
     height = raster.shape[0]
     low, high = int(raster[height - 7, POSITION_X]), int(raster[height - 6, POSITION_X])
     if low > 99:
         raise DatError(
-            f"{_describe(height - 7, POSITION_X, p, n)}: position code low part {low} is not 0..99"
+            f"{_describe(height - 7, POSITION_X, p, n)}: position code low part {low} is not 0..99",
+            y=height - 7,
+            x=POSITION_X,
         )
     position = high * 100 + low
     if min_slot is None:
@@ -523,7 +562,9 @@ def decode(data: bytes, *, min_slot: int | None = None, strict: bool = False) ->
     if end_r5 not in (0, 2):
         raise DatError(
             f"{_describe(PASS_Y + n, int(_r_value_x(p)[4]), p, n)}: the first fixed "
-            f"end course has R5 = {end_r5}, not 0 or 2 (carriage move)"
+            f"end course has R5 = {end_r5}, not 0 or 2 (carriage move)",
+            y=PASS_Y + n,
+            x=int(_r_value_x(p)[4]),
         )
     image = DatImage(
         passes=_read_passes(raster, p, n, min_slot),
@@ -538,7 +579,9 @@ def decode(data: bytes, *, min_slot: int | None = None, strict: bool = False) ->
         y, x = (int(v) for v in diff[0])
         raise DatError(
             f"{_describe(y, x, p, n)}: colour {raster[y, x]} where the DAT layout "
-            f"has {expected[y, x]}"
+            f"has {expected[y, x]}",
+            y=y,
+            x=x,
         )
     return image
 

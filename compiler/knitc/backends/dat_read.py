@@ -82,6 +82,10 @@ courses excluded, as in `DatImage.passes`) and the slot.
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
+from collections.abc import Callable
+
+import numpy as np
 
 from knitc.backends.dat import (
     KNIT_B,
@@ -105,10 +109,21 @@ from knitc.backends.dat import (
     DatImage,
     DatPass,
 )
+from knitc.backends.dat_format import PASS_Y, SIDE, SLOT_X, TOP, DatError, decode, read_raster
 from knitc.backends.knitout_read import gc_paused
 from knitc.codegen.machine import Machine, MachineProgram, Needle, Op
+from knitc.codegen.simulate import simulate
+from knitc.diagnostics import Diagnostics, Note
+from knitc.source import Span
 
-__all__ = ["DEFAULT_WIDTH", "DatReadError", "carriers_of_code", "dat_to_program", "racking_of"]
+__all__ = [
+    "DEFAULT_WIDTH",
+    "DatReadError",
+    "carriers_of_code",
+    "dat_to_program",
+    "racking_of",
+    "read_dat",
+]
 
 DEFAULT_WIDTH = 540
 """Bed width the converter assumes without a ``;;Width:`` header."""
@@ -150,14 +165,25 @@ _SVS: dict[int, tuple[bool, int]] = {
 
 
 class DatReadError(ValueError):
-    """A pass row that no program produces, with its index in `DatImage.passes` (and slot)."""
+    """A pass row that no program produces, with its index in `DatImage.passes` (and slot),
+    and, when the reader knows it, the raster pixel to blame (`y` from the bottom, `x`)."""
 
-    def __init__(self, message: str, row: int, slot: int | None = None) -> None:
+    def __init__(
+        self,
+        message: str,
+        row: int,
+        slot: int | None = None,
+        *,
+        y: int | None = None,
+        x: int | None = None,
+    ) -> None:
         where = f"pass {row}" + (f", slot {slot}" if slot is not None else "")
         super().__init__(f"{where}: {message}")
         self.message = message
         self.row = row
         self.slot = slot
+        self.y = y
+        self.x = x
 
 
 def racking_of(p: DatPass) -> float:
@@ -187,10 +213,15 @@ def carriers_of_code(code: int) -> tuple[int, ...]:
 
 
 class _Reader:
-    def __init__(self, image: DatImage, explicit_kicks: bool) -> None:
+    def __init__(self, image: DatImage, explicit_kicks: bool, machine: Machine) -> None:
         self.image = image
         self.explicit = explicit_kicks
+        self.limit = machine.racking_limit
         self.ops: list[Op] = []
+        self.row_starts: list[int] = []
+        """Index of the first op of every pass row (`where`)."""
+        self.slot_of: dict[int, int] = {}
+        """Op index -> the slot whose colour made it."""
         self.racking: float = 0
         self.stitch = 5
         self.speed = 0
@@ -214,7 +245,13 @@ class _Reader:
         except ValueError as e:
             raise self.fail(str(e)) from None
 
-    def rack(self, r: float) -> None:
+    def rack(self, r: float, slot: int | None = None) -> None:
+        if abs(r) > self.limit:
+            e = self.fail(f"racking {r:g} is beyond the machine's limit of {self.limit}", slot)
+            if slot is None:  # the row's own racking: point at its L2 value
+                e.y = PASS_Y + self.row
+                e.x = option_x("L2", self.image.max_slot - self.image.min_slot + 1)
+            raise e
         if r != self.racking:
             self.ops.append(Op("rack", value=r))
             self.racking = r
@@ -222,7 +259,12 @@ class _Reader:
     def run(self) -> None:
         for i, p in enumerate(self.image.passes):
             self.row = i
+            self.row_starts.append(len(self.ops))
             self.one(p)
+
+    def where(self, op: int) -> tuple[int, int | None]:
+        """The pass row and slot that op number `op` was read from."""
+        return bisect_right(self.row_starts, op) - 1, self.slot_of.get(op)
 
     def one(self, p: DatPass) -> None:
         ops = self.ops
@@ -294,15 +336,21 @@ class _Reader:
                 return [s] + order[:k] + order[k + 1 :] if k else order
         return order
 
+    def emit(self, op: Op, slot: int | None = None) -> None:
+        """Append `op`, remembering the slot it was read from (`where`)."""
+        if slot is not None:
+            self.slot_of[len(self.ops)] = slot
+        self.ops.append(op)
+
     def needle_ops(self, p: DatPass, cs: tuple[int, ...]) -> None:
-        ops, nd = self.ops, self.needle
+        emit, nd = self.emit, self.needle
         d = 1 if p.direction == RIGHT else -1 if p.direction == LEFT else 0
         if p.direction not in (RIGHT, LEFT, NONE):
             raise self.fail(f"direction code {p.direction} is not {RIGHT}, {LEFT} or {NONE}")
         r = self.racking
         fl = math.floor(r)
         l13 = p.left[12]
-        returns: list[Op] = []
+        returns: list[tuple[Op, int]] = []
         ret_racking: float | None = None
         order = sorted(p.slots, reverse=d < 0)
         if not cs and self.row > 0:
@@ -320,14 +368,14 @@ class _Reader:
                             raise self.fail(
                                 f"colour {code} with carriers in a row without a direction", s
                             )
-                        ops.append(Op(kind, d, n, None, cs))
+                        emit(Op(kind, d, n, None, cs), s)
                     elif kind == "miss":
                         raise self.fail(f"miss colour {code} in a row without carriers", s)
                     else:
-                        ops.append(Op("drop" if kind == "knit" else "amiss", needle=n))
+                        emit(Op("drop" if kind == "knit" else "amiss", needle=n), s)
             elif code == SOFT_MISS:
                 if self.explicit and cs and d:
-                    ops.append(Op("miss", d, nd("f", s), None, cs))
+                    emit(Op("miss", d, nd("f", s), None, cs), s)
             elif code in (XFER_FB, XFER_BF):
                 if r != fl:
                     raise self.fail(f"transfer colour {code} at quarter-pitch racking {r:g}", s)
@@ -338,8 +386,9 @@ class _Reader:
                     nd("fs" if front_slider else "f", s),
                     nd("bs" if back_slider else "b", s - fl),
                 )
-                ops.append(
-                    Op("xfer", needle=f, needle2=b) if to_back else Op("xfer", needle=b, needle2=f)
+                emit(
+                    Op("xfer", needle=f, needle2=b) if to_back else Op("xfer", needle=b, needle2=f),
+                    s,
                 )
             elif code in (SPLIT_FB, SPLIT_BF):
                 if not cs or not d:
@@ -348,7 +397,7 @@ class _Reader:
                     )
                 f, b = nd("f", s), nd("b", s - fl)
                 a, t = (f, b) if code == SPLIT_FB else (b, f)
-                ops.append(Op("split", d, a, t, cs))
+                emit(Op("split", d, a, t, cs), s)
             elif code in _SVS:
                 if not cs or not d:
                     raise self.fail(
@@ -367,13 +416,14 @@ class _Reader:
                 else:  # b(s - R) -> fs(s), back to b(s - ret)
                     src, slider = nd("b", s - fl), nd("fs", s)
                     home = nd("b", int(slider.index - ret))
-                ops.append(Op("split", d, src, slider, cs))
-                returns.append(Op("xfer", needle=slider, needle2=home))
+                emit(Op("split", d, src, slider, cs), s)
+                returns.append((Op("xfer", needle=slider, needle2=home), s))
             else:
                 raise self.fail(f"colour {code} is not a needle operation knitc reads", s)
         if ret_racking is not None:
-            self.rack(ret_racking)
-            ops.extend(returns)
+            self.rack(ret_racking, returns[0][1])
+            for op, s in returns:
+                emit(op, s)
 
 
 def _collide(a: int, b: int, quarter: bool) -> bool:
@@ -408,10 +458,142 @@ def dat_to_program(
 ) -> MachineProgram:
     """The program of a DAT image (module docstring), on `machine` (default: knitc's
     SWG091N2 profile). Raises DatReadError for a row no program would produce."""
-    r = _Reader(image, explicit_kicks)
+    return _decode(image, explicit_kicks, machine or Machine())[0]
+
+
+Locate = Callable[[int], tuple[int, int]]
+"""Op index -> the raster pixel (y from the bottom, x) that op was read from."""
+
+
+def _decode(
+    image: DatImage, explicit_kicks: bool, machine: Machine
+) -> tuple[MachineProgram, Locate]:
+    r = _Reader(image, explicit_kicks, machine)
     position, width = _placement(image)
-    prog = MachineProgram(machine or Machine(), position=position, width=width)
+    prog = MachineProgram(machine, position=position, width=width)
+    used = image.max_slot - image.min_slot + 1
     with gc_paused():
-        r.run()
+        try:
+            r.run()
+        except DatReadError as e:
+            if e.y is None:
+                e.y = PASS_Y + e.row
+                e.x = SLOT_X + e.slot - image.min_slot if e.slot is not None else 49
+            raise
         prog.extend(r.ops)
-    return prog
+
+    def locate(op: int) -> tuple[int, int]:
+        row, slot = r.where(op)
+        x = SLOT_X + slot - image.min_slot if slot is not None else _option_x(r.ops[op], used)
+        return PASS_Y + max(row, 0), x
+
+    return prog, locate
+
+
+_OPTION_OF_OP = {
+    "in": "R10",
+    "inhook": "R10",
+    "out": "R10",
+    "outhook": "R10",
+    "releasehook": "R15",
+    "stitch_number": "R6",
+    "presser": "R11",
+    "speed": "L5",
+    "pause": "L7",
+    "rack": "L2",
+}
+
+
+def option_x(name: str, used: int) -> int:
+    """The raster column of option `name`'s value (``"R10"``) in a DAT with `used` slots."""
+    k = int(name[1:])
+    return 50 - 2 * k if name[0] == "L" else 59 + used + 2 * k
+
+
+def _option_x(op: Op, used: int) -> int:
+    """Where an op that no slot made was read from: the value of its option line."""
+    return option_x(_OPTION_OF_OP.get(op.kind, "R3"), used)
+
+
+def is_converter_layout(raster: np.ndarray) -> bool:
+    """Whether a raster has the CMU converter's fixed end courses (its last course knits
+    both beds at quarter pitch, L3 = 1): then `dat_format.decode` reads it strictly. Any
+    other DAT is a KnitPaint pattern (`dat_codes`)."""
+    height, width = raster.shape
+    top = height - PASS_Y - 1
+    return height >= PASS_Y + TOP and width > 2 * SIDE and int(raster[top, option_x("L3", 0)]) == 1
+
+
+def read_dat(
+    data: bytes, path: str, *, machine: Machine | None = None
+) -> tuple[MachineProgram | None, Diagnostics]:
+    """`knitc dat2k`: the program of DAT bytes read from `path`, and E902 diagnostics at the
+    raster pixel to blame (``path:ROW:COLUMN``, counted from 1 at the bottom-left pixel).
+
+    Every value is checked where it enters, before work is done: the header's size against
+    the bed (`Machine.needles` plus the margins) before the raster is allocated, and every
+    row as it is read. The decoded program must then run clean on knitc's machine model
+    (`codegen.simulate`), so that what dat2k writes is valid Knitout: a carrier used before
+    it is brought in, a racking past the limit or loops left on the needles are located at
+    the row (and column) whose ops break the rule. Returns (None, errors) for a DAT that
+    cannot be read."""
+    from knitc.backends import dat_codes
+
+    m = machine or Machine()
+    diags = Diagnostics()
+    try:
+        raster = read_raster(data, max_width=width_limit(m))
+        if is_converter_layout(raster):
+            prog, locate = _decode(decode(data, max_width=width_limit(m)), False, m)
+        else:
+            prog, locate = dat_codes.read_pattern(raster, m)
+    except DatError as e:
+        _error(diags, path, str(e), e.y, e.x)
+        return None, diags
+    except DatReadError as e:
+        _error(diags, path, str(e), e.y, e.x)
+        return None, diags
+    broken = [f for f in simulate(prog, placed=True) if f.is_error]
+    if broken:
+        f = broken[0]
+        y, x = locate(f.op) if 0 <= f.op < len(prog.ops) else (None, None)
+        notes = [Note(f"the decoded operation: `{prog.ops[f.op]}`")] if y is not None else []
+        if len(broken) > 1:
+            notes.append(Note(f"and {len(broken) - 1} more problem(s) after it"))
+        _error(
+            diags,
+            path,
+            f"the decoded program breaks a machine rule ({f.code}): {f.message}",
+            y,
+            x,
+            notes,
+        )
+        return None, diags
+    return prog, diags
+
+
+def _error(
+    diags: Diagnostics,
+    path: str,
+    message: str,
+    y: int | None,
+    x: int | None,
+    notes: list[Note] | None = None,
+) -> None:
+    if y is None:  # the container or the raster as a whole
+        diags.error("E902", f"`{path}` is not a DAT file knitc can read: {message}", None)
+        return
+    col = (x or 0) + 1
+    diags.error(
+        "E902",
+        f"not a DAT file knitc can read: {message}",
+        Span(path, y + 1, col, y + 1, col + 1),
+        notes=notes or [],
+        hint="the location is the raster pixel (row and column from 1 at the bottom left); "
+        "`knitc dat2k --passes` prints every row's codes and option values",
+    )
+
+
+def width_limit(machine: Machine) -> int:
+    """The widest raster a DAT for `machine` has: its needles plus the margins and bars."""
+    return machine.needles + 2 * SIDE
