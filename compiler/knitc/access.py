@@ -108,6 +108,10 @@ def _how(name: str, path: str, real: str) -> str:
     return "the file that names it is outside them"
 
 
+_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
+_CLOEXEC = getattr(os, "O_CLOEXEC", 0)
+
+
 def read_regular(real: str, name: str, limit: int) -> bytes:
     """The bytes of the regular file at `real` (at most `limit` of them), or AccessProblem.
 
@@ -117,7 +121,8 @@ def read_regular(real: str, name: str, limit: int) -> bytes:
     try:
         if not stat.S_ISREG(os.stat(real).st_mode):
             raise AccessProblem(_not_regular(name, real), refused=False)
-        fd = os.open(real, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+        # `real` has no symlink left in it: O_NOFOLLOW refuses one swapped in since
+        fd = os.open(real, os.O_RDONLY | os.O_NONBLOCK | _NOFOLLOW | _CLOEXEC)
     except OSError as exc:
         raise AccessProblem(f"cannot read `{name}`: {exc.strerror or exc}", refused=False) from None
     with os.fdopen(fd, "rb") as f:
