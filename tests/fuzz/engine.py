@@ -26,12 +26,13 @@ SAMPLE_LIMIT = 40
 def _sampler(sample_dir: Path):
     count = {"ok": 0}
 
-    def save(text: str, knitout: bytes) -> None:
+    def save(text: str, defines: list[str]) -> None:
         count["ok"] += 1
         n = count["ok"]
         kept = sum(1 for _ in sample_dir.glob("*.knit"))
         if kept < SAMPLE_LIMIT and (n <= 10 or n % 16 == 0):
             name = hashlib.sha1(text.encode("utf-8", "surrogatepass")).hexdigest()[:12]
+            (sample_dir / f"{name}.defines").write_text("\n".join(defines), encoding="utf-8")
             (sample_dir / f"{name}.knit").write_text(text, encoding="utf-8", errors="surrogatepass")
 
     return save
@@ -48,11 +49,11 @@ def main() -> None:
         from knitc import driver  # noqa: F401
 
         _preload()
-    save = _sampler(sample)
+    targets.sample = _sampler(sample)
     if target == "design":
         import designs
 
-        one = designs.fuzz_one(save)
+        one = designs.fuzz_one()
     else:
         fn = targets.TARGETS[target]
 

@@ -106,7 +106,11 @@ def _check_sample(sample: Path) -> bool:
     if not files:
         print("== oracle sample: nothing compiled")
         return True
-    results = [compile_file(str(f), until="machine") for f in files]
+    results = []
+    for f in files:
+        defines = f.with_suffix(".defines")
+        flags = defines.read_text().split() if defines.exists() else []
+        results.append(compile_file(str(f), defines=flags, until="machine"))
     good = [(f, r) for f, r in zip(files, results, strict=True) if r.program is not None]
     print(f"== oracle sample: {len(good)} compiled designs on the independent machine")
     try:

@@ -43,6 +43,10 @@ _DAT_MAY_LEAVE = {"E803", "E804"}
 needles or a carrier in (an unfinished or partial program); the Knitout says the same."""
 
 
+sample: Callable[[str, list[str]], None] | None = None
+"""Where the engine collects compiled designs for the independent machine (engine.py)."""
+
+
 class Bug(Exception):
     """knitc misbehaved on this input; the message says how (with its stderr)."""
 
@@ -115,11 +119,11 @@ def compile_text(
     text: str,
     defines: list[str] | tuple[str, ...] = (),
     *,
-    save: Callable[[str, bytes], None] | None = None,
+    save: Callable[[str, list[str]], None] | None = None,
 ) -> int:
     """The whole pipeline on one design, to Knitout (then lint and DAT of that output);
     returns knitc's exit status. `save` receives each design that compiled, with its
-    Knitout (the sample the independent machine checks after a run)."""
+    `-D` overrides (the sample the independent machine checks after a run)."""
     src = _fresh("design.knit", text.encode("utf-8", "surrogatepass"))
     out = _WORK / "design.k"
     flags = [a for d in defines for a in ("-D", d)]
@@ -133,8 +137,9 @@ def compile_text(
         raise Bug(f"knitc's simulation rejects the program knitc generated\n{err}")
     if rc == 0:
         _check_own_knitout(out, err, "compile")
-        if save is not None:
-            save(text, out.read_bytes())
+        keep = save or sample
+        if keep is not None:
+            keep(text, list(defines))
     return rc
 
 
