@@ -53,7 +53,7 @@ def runs_of(data: bytes) -> np.ndarray:
 
 
 def test_fixture_corpus_is_present() -> None:
-    assert len(DATS) == 16
+    assert len(DATS) == 19
 
 
 def test_palette_is_the_converters() -> None:
@@ -215,16 +215,49 @@ def test_long_runs_split_at_255() -> None:
 
 
 def test_rle_row_ending_in_a_different_pixel_and_exact_255_runs() -> None:
-    """The converter's encoder would lose a row's last pixel if it differed from its left
-    neighbour and would write a 0-length run after an exact 255-run; this one does neither."""
-    raster = np.zeros((2, 300), dtype=np.uint8)
+    """A run of 255 (or 510) that another colour follows gets the converter's 0-length pair;
+    at a row end it does not. The converter's encoder would also lose a row's last pixel if it
+    differed from its left neighbour; that never happens in a DAT (the right margin is blank),
+    and `pack` keeps the pixel of any raster."""
+    raster = np.zeros((3, 600), dtype=np.uint8)
     raster[0, 255:] = 9
     raster[0, -1] = 7
     raster[1, :255] = 3
-    raster[1, 255] = 4
+    raster[1, 255:] = 4
+    raster[2, 90:] = 5
     data = pack(raster)
-    assert runs_of(data).tolist() == [[0, 255], [9, 44], [7, 1], [3, 255], [4, 1], [0, 44]]
+    assert runs_of(data).tolist() == [
+        [0, 255], [0, 0], [9, 255], [9, 89], [7, 1],
+        [3, 255], [3, 0], [4, 255], [4, 90],
+        [0, 90], [5, 255], [5, 255],
+    ]  # fmt: skip
     assert np.array_equal(read_raster(data, strict=True), raster)
+
+
+def assert_converter_runs(runs: np.ndarray, width: int, height: int) -> None:
+    """The pairs are the converter's form: per row, each colour run is 255-pairs and a
+    remainder of 1..255, plus a 0-length pair exactly when the run is a multiple of 255 and
+    another colour follows it in the row."""
+    pairs = runs.tolist()
+    i = 0
+    for _ in range(height):
+        filled = 0
+        groups: list[tuple[int, list[int]]] = []
+        while filled < width:
+            colour, length = pairs[i]
+            i += 1
+            if groups and groups[-1][0] == colour:
+                groups[-1][1].append(length)
+            else:
+                groups.append((colour, [length]))
+            filled += length
+        assert filled == width  # no run crosses a row end
+        for k, (_, lengths) in enumerate(groups):
+            inner = k < len(groups) - 1
+            body = lengths[:-1] if inner and lengths[-1] == 0 else lengths
+            assert body and all(n == 255 for n in body[:-1]) and 1 <= body[-1] <= 255
+            assert (lengths[-1] == 0) == (inner and body[-1] == 255)
+    assert i == len(pairs)
 
 
 @settings(max_examples=150, deadline=None)
@@ -238,12 +271,8 @@ def test_rle_round_trip_property(height: int, width: int, data) -> None:
         raster[start:stop] = data.draw(st.sampled_from(palette))
     raster = raster.reshape(height, width)
     packed = pack(raster)
-    runs = runs_of(packed)
-    assert runs[:, 1].min() >= 1
+    assert_converter_runs(runs_of(packed), width, height)
     assert np.array_equal(read_raster(packed, strict=True), raster)
-    # runs never cross a row end
-    ends = np.cumsum(runs[:, 1].astype(np.int64))
-    assert set(range(width, height * width + 1, width)) <= set(ends.tolist())
 
 
 def test_lenient_reader_accepts_non_canonical_runs() -> None:
@@ -259,24 +288,33 @@ def test_lenient_reader_accepts_non_canonical_runs() -> None:
 
 
 def test_converters_zero_run_after_an_exact_255_run() -> None:
-    """The converter writes (c, 255), (c, 0) when a run of exactly 255 is followed by another
-    colour (seen with knits on f1 and f257 only). The reader accepts it; the writer does not
-    reproduce it."""
+    """Like the converter, the encoder writes (c, 255), (c, 0) when a run of exactly 255 is
+    followed by another colour (here the gap between knits on f1 and f257). The form without
+    the 0-length pair decodes to the same image, but only leniently."""
     image = DatImage(
         passes=[DatPass(direction=RIGHT, slots={1: KNIT_F, 257: KNIT_F})], min_slot=1, max_slot=257
     )
     data = encode(image)
     runs = runs_of(data).tolist()
-    # the pass row's 255-pixel gap between the two knits
-    at = next(i for i in range(len(runs) - 1) if runs[i : i + 2] == [[0, 255], [KNIT_F, 1]])
-    converter_form = (
-        data[:HEADER_SIZE]
-        + np.array(runs[: at + 1] + [[0, 0]] + runs[at + 1 :], np.uint8).tobytes()
-    )
-    assert decode(converter_form) == decode(data)
-    assert encode(decode(converter_form)) == data
+    at = next(i for i in range(len(runs) - 2) if runs[i : i + 3] == [[0, 255], [0, 0], [KNIT_F, 1]])
+    greedy = data[:HEADER_SIZE] + np.array(runs[: at + 1] + runs[at + 2 :], np.uint8).tobytes()
+    assert decode(greedy) == decode(data, strict=True)
+    assert encode(decode(greedy)) == data
     with pytest.raises(DatError, match="canonical"):
-        decode(converter_form, strict=True)
+        decode(greedy, strict=True)
+
+
+@pytest.mark.parametrize("name", ["rle_runs", "rle_sheet_145", "rle_sheet_245"])
+def test_the_converters_run_edge_cases_re_encode_byte_for_byte(name: str) -> None:
+    """The converter's own DATs for runs of 254, 255, 256, 510 and 511 pixels, a raster 255
+    wide and a width row of 255 (tests/fixtures/dat/README.md): strict decoding accepts them
+    and encoding gives them back."""
+    data = fixture(name)
+    raster = read_raster(data, strict=True)
+    assert_converter_runs(runs_of(data), raster.shape[1], raster.shape[0])
+    assert encode(decode(data, strict=True)) == data
+    zero_pairs = {"rle_runs": 8, "rle_sheet_145": 0, "rle_sheet_245": 1}[name]
+    assert int((runs_of(data)[:, 1] == 0).sum()) == zero_pairs
 
 
 def test_strict_checks_the_container() -> None:

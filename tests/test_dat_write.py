@@ -131,7 +131,7 @@ def check_passes(prog: MachineProgram, image: DatImage) -> None:
 
 
 def test_fixture_corpus_is_present() -> None:
-    assert len(KNITOUT) == 16
+    assert len(KNITOUT) == 19
 
 
 @pytest.mark.parametrize("path", KNITOUT, ids=lambda p: p.stem)
