@@ -353,6 +353,13 @@ def test_mixed_profile_is_an_error():
     assert "E104" in syntax_error("param x = [0: 1, 2]")
 
 
+def test_a_literal_beyond_the_float_range_is_an_error():
+    # `1e999` parsed to infinity, which crashed the queries (an int of it) and the formatter
+    msg = syntax_error("param x = 1e999")
+    assert "E110" in msg and "`1e999` is too large" in msg
+    assert expr("1e-999").value == 0.0  # too small is just zero
+
+
 def test_numbers():
     assert expr("42") == Number(42) and isinstance(expr("42").value, int)
     assert expr("0.5").value == 0.5

@@ -183,7 +183,10 @@ def _generate(r: Result) -> bool:
     if program is None:
         return False
     _verify("machine", mp.verify(program))
-    add_to_diagnostics(simulate(program), program, r.diagnostics)
+    if not r.diagnostics.has_errors:
+        # After a designer's error (an action that could not run, E72x) the program lacks
+        # that stitch's steps, and simulating it would blame knitc for the gap (E809).
+        add_to_diagnostics(simulate(program), program, r.diagnostics)
     r.program = program
     return True
 

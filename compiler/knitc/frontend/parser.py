@@ -17,6 +17,7 @@ Two details make it pleasant to write in:
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from functools import lru_cache
@@ -381,6 +382,10 @@ class _ToAst(Transformer):
         if len(text) > 300:
             raise _SyntaxProblem("E110", "number literal too long", self._tok(ch[0]))
         value: int | float = int(text) if re.fullmatch(r"\d+", text) else float(text)
+        if not math.isfinite(value):  # `1e999` would be infinity, and infinity is no size
+            raise _SyntaxProblem(
+                "E110", f"number literal `{text}` is too large for a number", self._tok(ch[0])
+            )
         return ast.Number(value, span=self._tok(ch[0]))
 
     def string(self, meta, ch):
