@@ -57,6 +57,10 @@ writes the node's ``expansion`` there); how many times the marked block repeats 
 machine setting, not in the file, so every course is read once. L9 (DSCS), L12 (split to
 hook), R7 and R9 change nothing a program says. A value of any other option, or a code
 the tables do not hold, is an error at its row and column.
+
+The stitches of the design are the pattern codes (1, 2, 11, 12, 17, 18, 60, 70 and the
+splits); their ops carry ``phase = "action"``, the casting codes (51, 52, 171, 172, ...)
+none, so that a structural comparison can count the design's stitches in the program.
 """
 
 from __future__ import annotations
@@ -109,6 +113,7 @@ _STITCH: dict[int, tuple[str | None, str | None]] = {
 _LINKED: dict[int, tuple[str, str]] = {1: ("knit", "f"), 2: ("knit", "b"), 11: ("tuck", "f")}
 _LINKED[12] = ("tuck", "b")
 """Link-process codes: the op and the bed it is made on, through the body's bed (L13)."""
+_KICKBACK = (17, 18)
 _XFER_THEN_KNIT = {60: "f", 70: "b"}
 _SPLIT = {101: ("f", "b"), 102: ("b", "f")}
 
@@ -441,7 +446,8 @@ class _Pattern:
                     if kind is None:
                         continue
                     if cs:
-                        stitches.append((Op(kind, d, n, None, cs), col))
+                        phase = "action" if code in _KICKBACK else ""
+                        stitches.append((Op(kind, d, n, None, cs, phase=phase), col))
                     elif kind == "knit" and n in self.loops:
                         stitches.append((Op("drop", needle=n), col))
             elif code in _LINKED:
@@ -455,13 +461,13 @@ class _Pattern:
                     home = f if body == "f" else b
                     before.append((home, n, col))
                     after.append((n, home, col))
-                stitches.append((Op(kind, d, n, None, cs), col))
+                stitches.append((Op(kind, d, n, None, cs, phase="action"), col))
             elif code in _XFER_THEN_KNIT:
                 if not cs:
                     raise self.fail(f"transfer-then-knit code {code} without carriers", col)
                 to = f if _XFER_THEN_KNIT[code] == "f" else b
                 before.append((b if to is f else f, to, col))
-                stitches.append((Op("knit", d, to, None, cs), col))
+                stitches.append((Op("knit", d, to, None, cs, phase="action"), col))
             elif code in _SPLIT or code in _SVS:
                 if not cs:
                     raise self.fail(f"split code {code} without carriers", col)
@@ -497,7 +503,7 @@ class _Pattern:
         slider and moved back along its own bed at the return racking (106..149)."""
         if code in _SPLIT:
             a, t = _SPLIT[code]
-            return Op("split", d, self.needle(a, col), self.needle(t, col), cs)
+            return Op("split", d, self.needle(a, col), self.needle(t, col), cs, phase="action")
         from_front, delta = _SVS[code]
         if from_front:
             src, slider = self.needle("f", col), self.needle("bs", col)
@@ -506,7 +512,7 @@ class _Pattern:
             src, slider = self.needle("b", col), self.needle("fs", col)
             home = self.needle("b", col - delta)
         returns.setdefault(delta, []).append((slider, home, col))
-        return Op("split", d, src, slider, cs)
+        return Op("split", d, src, slider, cs, phase="action")
 
     def transfer_course(self, c: _Course) -> None:
         sliders = c.option("L13") in _SLIDERS
@@ -548,9 +554,8 @@ class _Pattern:
                 raise self.fail(f"code {code} is not a transfer-course code knitc reads", col)
         for col, code, k in self.cable_shifts(cables):
             move(body, col, k, 1 if code in _CABLE_UPPER else 0)
-        if not first and not second:
-            return
-        self.rack(0)
+        if first:
+            self.rack(0)
         for a, t, col in first:
             self.xfer(a, t, col)
         for (_, r), steps in sorted(second.items()):
