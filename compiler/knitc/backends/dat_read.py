@@ -76,7 +76,13 @@ outside them round-trip byte for byte, see tests/test_dat_read.py):
   converted from Knitout with negative slots may kick in another order when written again.
 
 Ops get no span (a DAT has no lines); a `DatReadError` names the pass row (0-based, fixed
-courses excluded, as in `DatImage.passes`) and the slot.
+courses excluded, as in `DatImage.passes`) and the slot, and the raster pixel (`y`, `x`).
+
+`read_dat` is `knitc dat2k`: it checks the header against the bed before the raster is
+allocated, reads a converter-layout DAT here and any other (a KnitPaint pattern, as the
+original system writes) with `dat_codes`, runs the program on knitc's machine model and
+reports whatever fails as an E902 at ``FILE:ROW:COLUMN`` of the pixel to blame (docs/dat.md),
+so that what dat2k writes is always valid Knitout.
 """
 
 from __future__ import annotations
