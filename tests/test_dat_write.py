@@ -550,15 +550,46 @@ def test_whole_program_refusals() -> None:
     wide.knit(+1, "f0", 1)
     wide.knit(+1, "f70000", 1)
     wide.out(1)
-    with pytest.raises(DatWriteError, match="raster"):
+    with pytest.raises(DatWriteError, match="raster") as info:
         to_dat(wide)
+    assert info.value.op_index == 2  # the op that made it too wide
     bed = program()
     bed.in_(1)
-    bed.knit(+1, "f0", 1)
     bed.knit(+1, "f600", 1)
+    bed.knit(-1, "f0", 1)
     bed.out(1)
-    with pytest.raises(DatWriteError, match="machine has 541"):
+    with pytest.raises(DatWriteError, match="machine has 541") as info:
         to_dat(bed)
+    assert info.value.op_index == 2
+    centred = program()
+    centred.in_(1)
+    centred.knit(+1, "f400", 1)
+    centred.knit(-1, "f0", 1)
+    centred.out(1)
+    with pytest.raises(DatWriteError, match="wider than the bed") as info:
+        to_dat(centred, width=300, position="Center")
+    assert info.value.op_index == 2
+
+
+def test_keep_outside_the_bed_names_the_op_beyond_it() -> None:
+    prog = program()
+    prog.in_(1)
+    prog.knit(-1, "f20", 1)
+    prog.knit(-1, "f10", 1)
+    prog.knit(+1, "f10", 1)
+    prog.knit(+1, "f120", 1)
+    prog.out(1)
+    with pytest.raises(DatWriteError, match="outside the bed's needles 1..100") as info:
+        to_dat(prog, width=100, position="Keep")
+    assert info.value.op_index == 4
+    low = program()
+    low.in_(1)
+    low.knit(-1, "f10", 1)
+    low.knit(-1, "f0", 1)
+    low.out(1)
+    with pytest.raises(DatWriteError, match="outside") as info:
+        to_dat(low, width=200, position="Keep")
+    assert info.value.op_index == 2
 
 
 def test_racking_up_to_eight_when_the_machine_allows_it() -> None:

@@ -367,6 +367,10 @@ class _Writer:
         """Index of the op being converted."""
         self.good_sets: set[tuple[int, ...]] = set()
         """Carrier sets already checked (one to two carriers, each 1..10)."""
+        self.lo: tuple[int, int] | None = None
+        self.hi: tuple[int, int] | None = None
+        """(slot, op index) of the leftmost and rightmost slot so far, so that a design too
+        wide for the bed is reported at the op that made it so."""
 
     # -- helpers --------------------------------------------------------------------------------
 
@@ -469,6 +473,7 @@ class _Writer:
         if gripper:
             p.gripper = gripper
         assert merged is not None  # every None above returned False
+        self.extend(slot)
         slots[slot] = merged
         if slot < p.lo:
             p.lo = slot
@@ -479,6 +484,13 @@ class _Writer:
         if merged in _BACK:
             p.back = True
         return True
+
+    def extend(self, slot: int) -> None:
+        """Note a slot a pass takes (for the bounds of the design and who set them)."""
+        if self.lo is None or slot < self.lo[0]:
+            self.lo = (slot, self.i)
+        if self.hi is None or slot > self.hi[0]:
+            self.hi = (slot, self.i)
 
     def new_pass(
         self,
@@ -496,6 +508,7 @@ class _Writer:
         r = self.racking
         if abs(r) > self.limit:
             raise self.fail(f"racking {r:g} is beyond the machine's limit of {self.limit}")
+        self.extend(slot)
         self.passes.append(
             _Pass(
                 typ, r, stitch, self.speed, d, cs, presser, hook, gripper, pause, slot, code, self.i
@@ -901,18 +914,21 @@ class _Writer:
         passes = self.passes
         if not passes:
             raise DatWriteError("the program makes no carriage pass; a DAT needs at least one")
-        lo = min(p.lo for p in passes)
-        hi = max(p.hi for p in passes)
+        assert self.lo is not None and self.hi is not None  # every slot came through extend
+        (lo, lo_op), (hi, hi_op) = self.lo, self.hi
+        widest = max(lo_op, hi_op)  # the op that stretched the design last
         used = hi - lo + 1
         if used + 110 > MAX_SIDE or len(passes) + 19 > MAX_SIDE:
             raise DatWriteError(
                 f"the DAT raster would be {used + 110} x {len(passes) + 19}; "
-                f"each side must stay below {MAX_SIDE + 1}"
+                f"each side must stay below {MAX_SIDE + 1}",
+                widest if used + 110 > MAX_SIDE else passes[MAX_SIDE - 19].op,
             )
         needles = self.prog.machine.needles
         if used > needles:
             raise DatWriteError(
-                f"the design spans {used} needles (slots {lo}..{hi}); the machine has {needles}"
+                f"the design spans {used} needles (slots {lo}..{hi}); the machine has {needles}",
+                widest,
             )
         out: list[DatPass] = []
         carriage = 1  # after the fixed start courses the carriage is on the right
@@ -997,13 +1013,15 @@ class _Writer:
             if code < 0:
                 raise DatWriteError(
                     f"the design spans {used} needles, wider than the bed "
-                    f"({width}); it cannot be centred"
+                    f"({width}); it cannot be centred",
+                    widest,
                 )
         elif position == "Keep":
             if not (lo > 0 and hi <= width):
                 raise DatWriteError(
                     f"cannot use position Keep: slots {lo}..{hi} are outside "
-                    f"the bed's needles 1..{width}"
+                    f"the bed's needles 1..{width}",
+                    lo_op if lo <= 0 else hi_op,
                 )
             code = lo
         elif position == "Left":
