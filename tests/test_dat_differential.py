@@ -25,7 +25,7 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 
 from knitc.backends.dat_format import encode
 from knitc.backends.dat_write import to_dat
@@ -82,5 +82,9 @@ def test_shipped_designs_convert_to_the_converters_bytes(path: Path) -> None:
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(machine_programs(max_steps=30))
 def test_generated_programs_convert_to_the_converters_bytes(prog: MachineProgram) -> None:
+    # knitc's one deliberate difference in the pass data: a pair led by carrier 10 is 10X
+    # (e.g. 106), the converter writes 1X (16, the code of carriers 1 and 6): see
+    # dat_write.carrier_code. Seen in 3 of 1,000 generated programs, the only differences.
+    assume(not any(len(op.carriers) == 2 and op.carriers[0] == 10 for op in prog.ops))
     text = write_knitout(prog, one_carrier_per_line=False)
     assert knitc_dat(text) == converter_dat(text), text
