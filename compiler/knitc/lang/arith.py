@@ -25,6 +25,10 @@ import numpy as np
 LIMIT = 1e300
 """Largest magnitude a computed number may have."""
 
+TOO_LARGE = "number too large: the limit is ±1e300"
+"""The message of a result beyond `LIMIT`, which names the limit so the designer knows how
+far off the number is."""
+
 EXACT = 2**53
 """Integers beyond this are carried as floats (what float64 holds exactly)."""
 
@@ -70,32 +74,35 @@ def scalar(op: str, x: int | float, y: int | float) -> int | float | bool:
         else:
             raise AssertionError(op)
     except (OverflowError, ZeroDivisionError):
-        raise ArithError("number too large") from None
-    return _bounded(r)
+        raise ArithError(TOO_LARGE) from None
+    return bounded(r)
 
 
 def negate(x: int | float) -> int | float:
-    return _bounded(-x)
+    return bounded(-x)
 
 
 def _check_power(x: float, y: float) -> None:
     if abs(y) > 1024 or (abs(x) > 1 and abs(y) * math.log10(abs(x)) > 300):
-        raise ArithError("number too large")
+        raise ArithError(TOO_LARGE)
     if x < 0 and not float(y).is_integer():
         raise ArithError(f"{_show(x)} ^ {_show(y)} is not a real number")
     if x == 0 and y < 0:
         raise ArithError("division by zero")
 
 
-def _bounded(r: int | float) -> int | float:
+def bounded(r: int | float) -> int | float:
+    """`r` as the language carries it: an error beyond `LIMIT` or not finite (an infinity
+    or a nan, which no quantity can be), a float if it is an integer beyond `EXACT`. Every
+    number an evaluator computes outside `scalar` (a builtin's result) goes through here."""
     if isinstance(r, int):
         if abs(r) <= EXACT:
             return r
         if abs(r) > LIMIT:
-            raise ArithError("number too large")
+            raise ArithError(TOO_LARGE)
         return float(r)
     if not math.isfinite(r) or abs(r) > LIMIT:
-        raise ArithError("number too large")
+        raise ArithError(TOO_LARGE)
     return r
 
 
@@ -125,7 +132,7 @@ def vector(op: str, a: Any, b: Any) -> np.ndarray:
                 & (np.abs(y) * np.log10(np.where(np.abs(x) > 1, np.abs(x), 1.0)) > 300)
             )
             if np.any(big):
-                raise ArithError("number too large")
+                raise ArithError(TOO_LARGE)
             bad = (x < 0) & (y != np.floor(y))
             if np.any(bad):
                 i = int(np.argmax(bad))
@@ -140,5 +147,5 @@ def vector(op: str, a: Any, b: Any) -> np.ndarray:
                 op
             ](x, y)
     if not np.all(np.isfinite(r)) or np.any(np.abs(r) > LIMIT):
-        raise ArithError("number too large")
+        raise ArithError(TOO_LARGE)
     return r

@@ -88,18 +88,98 @@ def type_name(v: object) -> str:
 
 
 def show(v: object) -> str:
-    """A value as the designer would write it, for messages."""
+    """A value as the designer would write it, for messages: a number beyond 15 digits in
+    the `1e+300` form (the limit of a number has 301 digits), a list cut short after
+    `SHOW_ITEMS` items (a list may hold 100,000, and a message is read by a person)."""
+    left = [SHOW_ITEMS]
+    return _show(v, left)
+
+
+SHOW_ITEMS = 20
+"""Items of a list (nested ones included) that a message shows before `...`."""
+
+
+def _show(v: object, left: list[int]) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
+    if isinstance(v, int) and abs(v) >= 10**20:
+        return f"{float(v):.6g}"
     if isinstance(v, float):
-        return str(int(v)) if v.is_integer() else f"{v:.6g}"
+        return str(int(v)) if v.is_integer() and abs(v) < 1e15 else f"{v:.6g}"
     if isinstance(v, str):
         return f'"{v}"'
     if isinstance(v, Profile):
         return "[" + ", ".join(f"{show(t)}: {show(x)}" for t, x in v.points) + "]"
     if isinstance(v, tuple):
-        return "[" + ", ".join(show(x) for x in v) + "]"
+        parts = []
+        for x in v:
+            if left[0] <= 0:
+                parts.append("...")
+                break
+            left[0] -= 1
+            parts.append(_show(x, left))
+        return "[" + ", ".join(parts) + "]"
     return str(v)
+
+
+LIST_ITEMS = 100_000
+"""Most items a list value may hold, counting the items of the lists inside it (each time
+they occur): `[l, l]` in a loop doubles, and comparing or showing a list walks all of it."""
+
+LIST_DEPTH = 100
+"""Most levels of lists inside lists (as expressions nest at most 100 levels, E111)."""
+
+
+class NestedList(tuple):
+    """A list value that holds lists, knowing its `size` and `depth` (see `LIST_ITEMS`),
+    so that building `[l, l]` is checked from its items' counts, never by walking `l`."""
+
+    size: int
+    depth: int
+
+
+def list_measure(v: tuple) -> tuple[int, int]:
+    """(size, depth) of a list value: items counted at every level, and levels of lists."""
+    if isinstance(v, NestedList):
+        return v.size, v.depth
+    size, depth = len(v), 1
+    stack = [(x, 2) for x in v if isinstance(x, tuple)]
+    while stack:  # a list made elsewhere (a host value): walked once, without recursion
+        x, d = stack.pop()
+        if isinstance(x, NestedList):
+            size, depth = size + x.size, max(depth, d + x.depth - 1)
+            continue
+        size, depth = size + len(x), max(depth, d)
+        stack.extend((y, d + 1) for y in x if isinstance(y, tuple))
+    return size, depth
+
+
+def make_list(items: list[Value], span: Span) -> tuple:
+    """The list value of `items` written at `span`; E320 beyond `LIST_ITEMS` or
+    `LIST_DEPTH`, where the list is built (nothing after it has to walk a huge one)."""
+    size, depth = len(items), 1
+    for x in items:
+        if isinstance(x, tuple):
+            s, d = list_measure(x)
+            size, depth = size + s, max(depth, d + 1)
+    hint = "a list that holds itself twice (`l = [l, l]`) doubles each time; keep lists flat"
+    if size > LIST_ITEMS:
+        raise EvalError(
+            "E320",
+            f"this list holds {size:,} items, counting those of the lists inside it; "
+            f"the limit is {LIST_ITEMS:,}",
+            span,
+            hint,
+        )
+    if depth > LIST_DEPTH:
+        raise EvalError(
+            "E320", f"this list nests {depth} lists deep; the limit is {LIST_DEPTH}", span, hint
+        )
+    if depth == 1:
+        return tuple(items)
+    out = NestedList(items)
+    out.size, out.depth = size, depth
+    return out
 
 
 class EvalError(Exception):
@@ -113,7 +193,7 @@ def round_half_up(x: float) -> int:
     return math.floor(x + 0.5)
 
 
-BUILTINS: dict[str, tuple[Callable[..., Value], tuple[int, int]]] = {
+BUILTINS: dict[str, tuple[Callable[..., int | float], tuple[int, int]]] = {
     "min": (lambda *a: min(a), (1, 64)),
     "max": (lambda *a: max(a), (1, 64)),
     "abs": (abs, (1, 1)),
@@ -169,7 +249,7 @@ class Evaluator:
         return self.prop(e.node, e.prop, e.span)
 
     def _ListExpr(self, e: ast.ListExpr) -> Value:
-        return tuple(self.eval(i) for i in e.items)
+        return make_list([self.eval(i) for i in e.items], e.span)
 
     def _Profile(self, e: ast.Profile) -> Value:
         pts: list[tuple[float, float]] = []
@@ -269,16 +349,20 @@ class Evaluator:
                 "E304", f"`{e.func.id}` takes {want} argument(s), got {len(args)}", e.span
             )
         try:
-            return fn(*args)
+            result = fn(*args)
         except (ValueError, OverflowError):
             raise EvalError(
                 "E305",
                 f"`{e.func.id}` is undefined for " + ", ".join(show(a) for a in args),
                 e.span,
             ) from None
+        try:  # `lerp(1e300, -1e300, 3)` overflows to infinity without an exception
+            return _arith.bounded(result)
+        except _arith.ArithError as exc:
+            raise EvalError(exc.code, f"`{e.func.id}`: {exc.message}", e.span) from None
 
     def _TupleExpr(self, e: ast.TupleExpr) -> Value:
-        return tuple(self.eval(i) for i in e.items)
+        return make_list([self.eval(i) for i in e.items], e.span)
 
     def _Index(self, e: ast.Index) -> Value:
         obj = self.eval(e.obj)

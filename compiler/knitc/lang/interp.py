@@ -31,12 +31,14 @@ from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 
 from knitc.frontend import ast
+from knitc.lang import arith
 from knitc.lang.evaluate import (
     BUILTINS,
     EvalError,
     Evaluator,
     Value,
     Word,
+    list_measure,
     show,
     type_name,
 )
@@ -98,6 +100,15 @@ def _no_param(name: str, span: Span) -> Value:
 def _no_prop(node: str | None, prop: str, span: Span) -> Value:
     where = f"@{node}.{prop}" if node else f"@{prop}"
     raise EvalError("E301", f"`{where}` cannot be read here", span)
+
+
+def length(v: tuple | range | str) -> int:
+    """`len(v)`, also of a range longer than the machine's integers (`range(10^300)`, whose
+    Python `len` raises OverflowError): a loop over it must fail on the budget, not crash."""
+    if isinstance(v, range):
+        step = v.step
+        return max(0, (v.stop - v.start + step - (1 if step > 0 else -1)) // step)
+    return len(v)
 
 
 def whole(v: object) -> int | None:
@@ -237,7 +248,7 @@ class Interpreter(Evaluator):
                 s.iter.span,
                 "loop over `range(n)` or a list `[a, b, c]`",
             )
-        n = len(items)
+        n = length(items)
         self._loops.append((s, n))
         saved = self._scope
         try:
@@ -260,10 +271,17 @@ class Interpreter(Evaluator):
         self.eval(s.expr)
 
     # -- the step budget
-    def _tick(self, stmt: ast.Node) -> None:
-        self._steps += 1
+    def _tick(self, stmt: ast.Node, cost: int = 1) -> None:
+        self._steps += cost
         if self._steps > self.budget:
             self._out_of_steps(stmt)
+
+    def _charge_lists(self, e: ast.Node, *values: Value) -> None:
+        """Comparing lists walks them: a step per item (nested ones included), so that a
+        loop comparing a 100,000-item list cannot outlast the budget by its comparisons."""
+        cost = sum(list_measure(v)[0] for v in values if isinstance(v, tuple))
+        if cost:
+            self._tick(e, cost)
 
     def _out_of_steps(self, stmt: ast.Node) -> None:
         if self._loops:
@@ -274,7 +292,9 @@ class Interpreter(Evaluator):
                 "E316",
                 f"{self.what} did not finish within {self.budget:,} steps",
                 loop.span,
-                f"this loop runs {n:,} times; is its bound right?",
+                f"this loop runs {n:,} times; is its bound right?"
+                if n < 10**15
+                else f"this loop runs {show(n)} times; is its bound right?",
             )
         raise EvalError(
             "E316", f"{self.what} did not finish within {self.budget:,} steps", stmt.span
@@ -353,7 +373,10 @@ class Interpreter(Evaluator):
                 f"`len` needs a list, a range or a string, got {type_name(v)}",
                 e.args[0].span,
             )
-        return len(v)
+        try:  # a range's length may exceed the limit of a number
+            return arith.bounded(length(v))
+        except arith.ArithError as exc:
+            raise EvalError(exc.code, f"`len`: {exc.message}", e.span) from None
 
     def _host_call(self, name: str, host: Host, e: ast.Call) -> Value:
         args: list[Value] = []
@@ -392,21 +415,26 @@ class Interpreter(Evaluator):
         if not isinstance(obj, tuple | range):
             raise EvalError("E303", f"cannot index {type_name(obj)}", e.obj.span)
         i = self.eval(e.index)
-        if not isinstance(i, int) or isinstance(i, bool) or not -len(obj) <= i < len(obj):
+        n = length(obj)
+        if not isinstance(i, int) or isinstance(i, bool) or not -n <= i < n:
             raise EvalError(
-                "E306", f"index {show(i)} is out of range for a list of {len(obj)}", e.index.span
+                "E306", f"index {show(i)} is out of range for a list of {show(n)}", e.index.span
             )
         return obj[i]
 
     def _Binary(self, e: ast.Binary) -> Value:
         if e.op in ("==", "!="):
             a, b = self.eval(e.left), self.eval(e.right)
-            if isinstance(a, range) or isinstance(b, range):
-                # A range is a lazy list: it equals the list of the same numbers.
+            self._charge_lists(e, a, b)
+            if isinstance(a, range) and isinstance(b, range):
+                same = a == b  # by value, without walking them
+            elif isinstance(a, range) or isinstance(b, range):
+                # A range is a lazy list: it equals the list of the same numbers (the list's
+                # length bounds the walk; its items were charged above).
                 same = (
                     isinstance(a, tuple | range)
                     and isinstance(b, tuple | range)
-                    and len(a) == len(b)
+                    and length(a) == length(b)
                     and all(
                         x == y and not isinstance(x, bool) and not isinstance(y, bool)
                         for x, y in zip(a, b)
