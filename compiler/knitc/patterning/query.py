@@ -59,6 +59,7 @@ import numpy as np
 from knitc.diagnostics import Diagnostics
 from knitc.frontend import ast
 from knitc.lang import arith
+from knitc.lang.evaluate import show
 from knitc.patterning import grids, raster
 from knitc.patterning.raster import Placement
 from knitc.shaping.stitch_graph import StitchGraph
@@ -87,6 +88,10 @@ SUPPORTED = (
     + GRIDS
 )
 """Every query function of thesis Table 5.1 and ch. 6.9.1 that knitc has."""
+MIN_NOISE_SCALE = 1e-6
+"""Smallest noise scale: a frame's coordinates divided by it stay far below 2^53, where
+floats stop holding whole numbers and the noise would no longer be the same on every
+machine (a scale of 1e-320 made them infinite)."""
 X_ALIGN = {"left": "left", "center": "center", "centre": "center", "right": "right"}
 Y_ALIGN = {
     "bottom": "bottom",
@@ -504,10 +509,11 @@ class _Eval:
     def noise(self, fr: Placement, a: dict[str, ast.Node]) -> Placement:
         """Stitches where seeded 2-D simplex noise over the frame reaches the threshold."""
         scale = self.scalar(a["scale"])
-        if not scale > 0:
+        if not scale >= MIN_NOISE_SCALE:
             raise QueryError(
                 "E717",
-                f"the noise scale is a size in stitches above 0, got {scale:g}",
+                f"the noise scale is a size in stitches of at least {MIN_NOISE_SCALE:f}, "
+                f"got {scale:g}",
                 a["scale"].span,
             )
         threshold = self.scalar(a["threshold"]) if "threshold" in a else 0.5
@@ -558,7 +564,10 @@ class _Eval:
                 f"a grid size is a whole number of stitches other than 0, or `end`, got {v:g}",
                 e.span,
             )
-        return (1 if v > 0 else -1), abs(int(v))
+        # No grid is taller or wider than the graph has stitches: a size beyond that is cut
+        # to it (twice it, so a "middle" alignment still reaches every end) and stays a
+        # machine integer in the arrays the grid is built in.
+        return (1 if v > 0 else -1), min(abs(int(v)), 2 * self.g.n_stitches + 1)
 
     def seeds_course(self, sel: np.ndarray, top: bool) -> np.ndarray:
         """The stitches of `sel` on its lowest (or highest) course, per node."""
@@ -623,7 +632,7 @@ class _Eval:
         return table[v]
 
     def scalar(self, e: ast.Node) -> float:
-        v, uses_end = self.bound(e, None)
+        v, uses_end = self.bound(e, None, "E703")
         if uses_end or np.ndim(v) != 0:
             raise QueryError("E703", "expected a number", e.span)
         return float(v)
@@ -646,10 +655,12 @@ class _Eval:
         if lo < 0 or hi < lo:
             raise QueryError(
                 "E702",
-                f"bad ring range {lo}:{hi}",
+                f"bad ring range {show(lo)}:{show(hi)}",
                 arg.span if arg else None,
                 hint="rings are counted from 0 (the selection itself) upwards",
             )
+        # No stitch is further than the graph has stitches: farther rings are empty.
+        lo, hi = min(lo, self.g.n_stitches + 1), min(hi, self.g.n_stitches + 1)
         d = self.domain
         dist = np.where(base & d, 0, -1)
         cur = base & d
@@ -680,20 +691,23 @@ class _Eval:
             raise QueryError("E702", "expected a whole number", e.span)
         return int(v)
 
-    def bound(self, e: ast.Node, end: np.ndarray | None) -> tuple[Any, bool]:
-        """Arithmetic on a range bound; returns (value, whether it mentions `end`)."""
+    def bound(self, e: ast.Node, end: np.ndarray | None, code: str = "E702") -> tuple[Any, bool]:
+        """Arithmetic on a range bound (`code` E702) or on a number argument (E703: a grid
+        size, a noise scale); returns (value, whether it mentions `end`). The arithmetic is
+        the language's one (`knitc.lang.arith`), so a result beyond its limit is E305 where
+        it is computed, as in a filter."""
         if isinstance(e, ast.Number):
             return e.value, False
         if isinstance(e, ast.Name) and e.id in self.env.values:
             v = self.env.values[e.id]
             if isinstance(v, bool) or not isinstance(v, int | float):
                 raise QueryError(
-                    "E702", f"`{e.id}` is {v!r} here, not a number a range can use", e.span
+                    code, f"`{e.id}` is {show(v)} here, not a number a query can use", e.span
                 )
             return v, False
         if isinstance(e, ast.Name) and e.id == "end":
             if end is None:
-                raise QueryError("E702", "`end` cannot be used here", e.span)
+                raise QueryError(code, "`end` cannot be used here", e.span)
             return end, True
         if isinstance(e, ast.ParamRef):
             v = self.env.params.get(e.name)
@@ -701,16 +715,22 @@ class _Eval:
                 raise QueryError("E704", f"parameter `#{e.name}` is not a known number", e.span)
             return v, False
         if isinstance(e, ast.Unary) and e.op == "-":
-            v, u = self.bound(e.operand, end)
+            v, u = self.bound(e.operand, end, code)
             return -v, u
-        if isinstance(e, ast.Binary) and e.op in ("+", "-", "*", "/"):
-            a, ua = self.bound(e.left, end)
-            b, ub = self.bound(e.right, end)
-            try:  # the language's one arithmetic, as in a filter
+        if isinstance(e, ast.Binary) and e.op in arith.ARITHMETIC:
+            a, ua = self.bound(e.left, end, code)
+            b, ub = self.bound(e.right, end, code)
+            try:
                 return arith.vector(e.op, a, b), ua or ub
             except arith.ArithError as exc:
                 raise QueryError(exc.code, exc.message, e.span) from None
-        raise QueryError("E702", "a range bound is a number, `end` or `#param` arithmetic", e.span)
+        raise QueryError(
+            code,
+            "a range bound is a number, `end` or `#param` arithmetic"
+            if code == "E702"
+            else "a number argument is a number, a `#param` or arithmetic on them",
+            e.span,
+        )
 
     @staticmethod
     def _resolve(v: object, uses_end: bool, end: np.ndarray) -> np.ndarray:
