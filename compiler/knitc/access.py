@@ -86,6 +86,13 @@ def active_roots() -> ReadRoots | None:
 def check_within(path: str, name: str, roots: ReadRoots, what: str) -> str:
     """The real path of `path` (which the design wrote as `name`) if it lies below `roots`;
     else an AccessProblem (E226) that names neither what is there nor whether it exists."""
+    if "\0" in path:  # no file has such a name, and the OS refuses it with a ValueError
+        shown = name.replace("\0", "\\0")
+        raise AccessProblem(
+            f"`{shown}` is not a file name: it holds a NUL character",
+            refused=True,
+            hint="remove the NUL (`\\0`) characters from the path",
+        )
     real = os.path.realpath(path)
     if roots.contains(real):
         return real
