@@ -32,12 +32,23 @@ from knitc.frontend import ast
 from knitc.frontend import skeleton as sk
 from knitc.lang.evaluate import EvalError, Evaluator, Value, Word
 from knitc.patterning import actions, drawing
-from knitc.patterning.query import Coords, QueryEnv, coords, evaluate_query, relative
+from knitc.patterning.query import (
+    Coords,
+    QueryEnv,
+    bind_let,
+    coords,
+    evaluate_query,
+    relative,
+)
 from knitc.shaping.stitch_graph import INSTRUCTIONS, StitchGraph
 from knitc.source import Span
 
 MAX_DEPTH = 32
 """Nested `apply`s deeper than this are a pattern applying itself (E707)."""
+
+MAX_APPLIES = 10_000
+"""`apply`s one design may expand in all (E707): depth alone does not bound them, a
+definition applying the next one twice, 30 deep, expands 2^30 times."""
 
 
 def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> StitchGraph:
@@ -75,6 +86,8 @@ class _Run:
     span_ids: dict = dataclasses.field(default_factory=dict)
     chain: list = dataclasses.field(default_factory=list)
     """The `apply` statements being expanded, outermost first."""
+    applied: int = 0
+    """`apply` statements expanded so far (`MAX_APPLIES`)."""
 
     def __post_init__(self) -> None:
         self.coords = coords(self.g)  # once for every query of every layer
@@ -95,7 +108,7 @@ class _Run:
     ) -> None:
         for stmt in body:
             if isinstance(stmt, ast.Let):
-                env.lets[stmt.name.name] = stmt.value  # type: ignore[index]
+                env.lets[stmt.name.name] = bind_let(stmt.value, env.lets)  # type: ignore[index]
             elif isinstance(stmt, ast.SetStmt):
                 mask = self.select(node, stmt.where, env, within)
                 self.instr[mask] = INSTRUCTIONS.index(stmt.instr)
@@ -131,6 +144,17 @@ class _Run:
                 stmt.span,
                 hint="a pattern that applies itself never ends",
             )
+            return
+        self.applied += 1
+        if self.applied > MAX_APPLIES:
+            if self.applied == MAX_APPLIES + 1:  # once: every further `apply` stops here too
+                self.diags.error(
+                    "E707",
+                    f"the design applies patterns more than {MAX_APPLIES:,} times",
+                    self.chain[0] if self.chain else stmt.span,
+                    hint="a definition that applies another one twice, many levels deep, "
+                    "doubles the count at each level",
+                )
             return
         values = self.arguments(pdef, stmt, env)
         if values is None:

@@ -102,16 +102,45 @@ Y_ALIGN = {
 }
 
 
+@dataclass(frozen=True, eq=False)
+class LetDef:
+    """A `let`'s selection with what the `let` names it mentions meant where it was written
+    (`bind_let`). Looking those names up where the selection is used instead made
+    `let s = s or wales(0)` refer to itself (a RecursionError); and a query evaluates each
+    `LetDef` once, so `let s2 = s1 or s1` forty times is forty evaluations, not 2^40."""
+
+    node: ast.Node
+    refs: Mapping[str, np.ndarray | ast.Node | LetDef]
+
+
+def bind_let(
+    node: ast.Node, lets: Mapping[str, np.ndarray | ast.Node | LetDef]
+) -> ast.Node | LetDef:
+    """The value `let NAME = node` binds, given the block's `lets` so far: a grid as it is
+    (it names nothing), a selection as a `LetDef` holding the bindings it refers to."""
+    if isinstance(node, ast.Grid):
+        return node
+    named = {n.id for n in node.walk() if isinstance(n, ast.Name)} & lets.keys()
+    return LetDef(node, {k: lets[k] for k in named})
+
+
+MAX_NESTING = 200
+"""Levels of selections inside selections a query may nest, counting those of the `let`s
+it names (E708): a single expression nests at most 100 (E111), but a chain of `let`s each
+naming the one before could nest without end, and evaluation recurses once per level."""
+
+
 @dataclass
 class QueryEnv:
     """What a query may refer to besides the graph: `#params` and `let`-bound selections.
 
-    A `let` value is either an already evaluated mask or the query AST it names (evaluated
-    lazily on the same node).
+    A `let` value is an already evaluated mask, the query AST it names (evaluated lazily on
+    the same node, with the current `lets`), or a `LetDef` (`bind_let`: evaluated lazily,
+    once per query, with the `let`s it named where it was written).
     """
 
     params: Mapping[str, object] = field(default_factory=dict)
-    lets: Mapping[str, np.ndarray | ast.Node] = field(default_factory=dict)
+    lets: Mapping[str, np.ndarray | ast.Node | LetDef] = field(default_factory=dict)
     values: Mapping[str, object] = field(default_factory=dict)
     """Bare names with a value: the arguments of the pattern definition being applied."""
 
@@ -227,18 +256,67 @@ class _Eval:
         self.scope = self.domain
         """The layer's stitches: the default frame of drawn queries and grids."""
         self._nbrs: np.ndarray | None = None
+        self.lets = env.lets
+        """The `let`s names mean here: the block's, or a `LetDef`'s own while it is evaluated."""
+        self._masks: dict[int, np.ndarray] = {}
+        self._frames: dict[int, Placement] = {}
+        self._depth = 0
+        self._root: ast.Node = ast.Name("")  # set by the first `_nested`
+
+    # -- `let`s and nesting
+    def _nested(self, q: ast.Node) -> None:
+        """Count one more level of `query`/`frame` (the caller uncounts it), E708 beyond
+        `MAX_NESTING`."""
+        if self._depth == 0:
+            self._root = q  # the selection as written, where the error is reported
+        if self._depth >= MAX_NESTING:
+            raise QueryError(
+                "E708",
+                f"this selection nests more than {MAX_NESTING} levels deep, "
+                "counting the `let`s it names",
+                self._root.span,
+                hint="a `let` that names the one before it, many times over, "
+                "nests one level each time",
+            )
+        self._depth += 1
+
+    def _in_let(self, let: LetDef, evaluate: Any) -> Any:
+        saved, self.lets = self.lets, let.refs
+        try:
+            return evaluate(let.node)
+        finally:
+            self.lets = saved
+
+    def _let_mask(self, let: LetDef) -> np.ndarray:
+        got = self._masks.get(id(let))
+        if got is None:
+            got = self._masks[id(let)] = self._in_let(let, self.query)
+        return got.copy()
+
+    def _let_frame(self, let: LetDef) -> Placement:
+        got = self._frames.get(id(let))
+        if got is None:
+            got = self._frames[id(let)] = self._in_let(let, self.frame)
+        return got
 
     # -- selections
     def query(self, q: ast.Node | None) -> np.ndarray:
         if q is None:
             return self.domain.copy()
+        self._nested(q)
+        try:
+            return self._query(q)
+        finally:
+            self._depth -= 1
+
+    def _query(self, q: ast.Node) -> np.ndarray:
         if isinstance(q, ast.Binary) and q.op in ("or", "and", "-"):
             a, b = self.query(q.left), self.query(q.right)
             return {"or": a | b, "and": a & b, "-": a & ~b}[q.op]
         if isinstance(q, ast.Unary) and q.op == "not":
             return self.domain & ~self.query(q.operand)
         if isinstance(q, ast.Name):
-            val = self.env.lets.get(q.id)
+            val = self.lets.get(q.id)
             if val is None:
                 raise QueryError(
                     "E704",
@@ -248,6 +326,8 @@ class _Eval:
                 )
             if isinstance(val, np.ndarray):
                 return val.astype(bool) & self.domain
+            if isinstance(val, LetDef):
+                return self._let_mask(val)
             return self.query(val)
         if isinstance(q, ast.Call) and isinstance(q.func, ast.Attr):
             name = q.func.name.name
@@ -353,6 +433,13 @@ class _Eval:
         """The selection of `q` with the coordinates a raster is placed in."""
         if q is None:
             return self.plain(self.scope.copy())
+        self._nested(q)
+        try:
+            return self._frame(q)
+        finally:
+            self._depth -= 1
+
+    def _frame(self, q: ast.Node) -> Placement:
         if isinstance(q, ast.Binary) and q.op in ("and", "-"):
             right: np.ndarray | Placement
             left = self.frame(q.left)
@@ -367,7 +454,9 @@ class _Eval:
                 return self.plain(left.mask & right.mask)
             return self.plain(left.mask & ~self.query(q.right))
         if isinstance(q, ast.Name):
-            val = self.env.lets.get(q.id)
+            val = self.lets.get(q.id)
+            if isinstance(val, LetDef):
+                return self._let_frame(val)
             if val is not None and not isinstance(val, np.ndarray):
                 return self.frame(val)
         if isinstance(q, ast.Call):
@@ -441,8 +530,8 @@ class _Eval:
     def raster_arg(self, a: ast.Node) -> np.ndarray:
         """The on/off cells of a grid argument: a `\"\"\"` grid, a `let` name bound to one,
         or an image `img(file, channel, threshold)`."""
-        if isinstance(a, ast.Name) and isinstance(self.env.lets.get(a.id), ast.Grid):
-            a = self.env.lets[a.id]  # type: ignore[assignment]
+        if isinstance(a, ast.Name) and isinstance(self.lets.get(a.id), ast.Grid):
+            a = self.lets[a.id]  # type: ignore[assignment]
         if isinstance(a, ast.Grid):
             for at, msg in raster.chart_shape_problems(a):
                 raise QueryError(
@@ -681,7 +770,7 @@ class _Eval:
     def string(self, a: ast.Node) -> str:
         if isinstance(a, ast.String):
             return a.value
-        if isinstance(a, ast.Name) and a.id not in self.env.lets:
+        if isinstance(a, ast.Name) and a.id not in self.lets:
             return a.id
         raise QueryError("E703", "expected a name in quotes", a.span)
 
