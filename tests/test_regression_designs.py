@@ -15,7 +15,15 @@ back stood in for the split loops that close the end).
 
 Lace: a move between two stitches the layout put on opposite beds (a ring rolled between
 them) was carried through the facing needle, on the target's own bed, and then transferred
-within one bed (an internal error); the loop now goes straight across.
+within one bed (an internal error); the loop now goes straight across. The same for a B move,
+whose loop is knitted on the facing needle: it goes back to its own needle first (it was an
+internal error on half-gauge tubes after a shaped tube, on shaped cylinder sheets and on
+full-gauge tubes). A loop carried onto the needle of a loop still waiting to go straight
+across was taken along with it (three loops on one needle); it now lands after that loop
+left. A ring the layout rotates between a course's two passes had its moves carried from the
+needles the first pass knitted on (E602, or silently the wrong loops); they are carried from
+where the second pass's layout put them. A B move in the first course knitted onto a
+catching tuck's needle, which the yarn start then dropped.
 """
 
 from __future__ import annotations
@@ -82,6 +90,37 @@ start n3.top
 n1.top -> n3.bottom
 pattern n1 { set FR1 where filter(wale % 3 == 1) }
 """
+B_MOVE_ON_A_ROLLED_RING = """\
+tube a { length: 6  width: [0: 6, 1: 10] }
+tube b { length: 6  width: 5  gauge: half }
+a.top -> b.bottom
+pattern b { set BR1 where courses(0:2) }
+"""
+B_MOVE_ON_A_SHAPED_CYLINDER = """\
+sheet s { type: cylinder  length: 4  width: [0: 4, 1: 8]  gauge: half }
+pattern s { set BR1 where wales(2).inverse() }
+"""
+B_MOVE_ON_A_SHAPED_FULL_GAUGE_TUBE = """\
+machine { racking: 3 }
+tube a { length: 4  width: [0: 6, 0.5: 11, 1: 12]  shaper: sides }
+tube b { length: 5  width: 12  gauge: half  shaper: sides }
+a.top -> b.bottom
+pattern a { set BR1 where filter(wale % 3 == 1) }
+"""
+LANDING_AFTER_THE_STRAIGHT_ACROSS_LOOP = """\
+tube a { length: 6  width: [0: 6, 1: 10] }
+tube b { length: 6  width: 5  gauge: half }
+a.top -> b.bottom
+pattern b { set BL2 where courses(0:2) }
+"""
+MOVES_ON_A_RING_ROTATED_BETWEEN_PASSES = """\
+sheet s { type: cylinder  length: 8  width: [0: 6, 1: 11]  shaper: uniform  gauge: full }
+pattern s { set FR1 where wales(1).inverse() }
+"""
+B_MOVES_IN_THE_FIRST_COURSE = """\
+sheet s { type: cylinder  length: 3  width: [0: 6, 1: 8]  gauge: half }
+pattern s { set BR1 where wales(2).inverse() }
+"""
 
 DESIGNS = {
     **CROWNS,
@@ -94,6 +133,12 @@ DESIGNS = {
     "closed-start-precast": PRECAST_CLOSED,
     "closed-start-precast-half": "machine { gauge: half }\n" + PRECAST_CLOSED,
     "lace-move-across-the-rolled-fold": LACE_ACROSS_THE_FOLD,
+    "b-move-on-a-rolled-half-gauge-ring": B_MOVE_ON_A_ROLLED_RING,
+    "b-move-on-a-shaped-cylinder-sheet": B_MOVE_ON_A_SHAPED_CYLINDER,
+    "b-move-on-a-shaped-full-gauge-tube": B_MOVE_ON_A_SHAPED_FULL_GAUGE_TUBE,
+    "move-lands-after-the-straight-across-loop": LANDING_AFTER_THE_STRAIGHT_ACROSS_LOOP,
+    "moves-on-a-ring-rotated-between-passes": MOVES_ON_A_RING_ROTATED_BETWEEN_PASSES,
+    "b-moves-in-the-first-course": B_MOVES_IN_THE_FIRST_COURSE,
 }
 
 

@@ -54,6 +54,8 @@ from knitc.source import Span
 
 SHORT_ROW = COURSE_KINDS.index("short_row")
 PURL, STACK = INSTRUCTIONS.index("P"), INSTRUCTIONS.index("S")
+REVERSED = [i for i, name in enumerate(INSTRUCTIONS) if name == "P" or name[0] == "B"]
+"""Instructions knitted from the facing needle (`_purl`): a purl and the B moves."""
 CARRIED = list(MOVES) + list(CROSSES)
 """Instructions whose loops `_carry` takes elsewhere after their course."""
 
@@ -143,6 +145,10 @@ class _Gen:
     needle holds fabric (a full-gauge tube)."""
     course_needles: set[Pos] = field(default_factory=set)
     """Where the stitches of the course being knitted are knitted (set once per course)."""
+    realigned: dict[int, Pos] = field(default_factory=dict)
+    """Stitches of the course being knitted whose loops a later slice's layout moved (the
+    alignment between a course's slices) -> where that layout put them, which is where
+    the course's moves and crosses find them (`_carry`)."""
     fetch: set[int] = field(default_factory=set)
     """Siblings of closing splits in a later slice: they fetch the split's old loop."""
     split_fallbacks: Counter = field(default_factory=Counter)
@@ -275,6 +281,7 @@ def _run(gen: _Gen) -> None:
         if v0 == course_bounds[ci]:  # a course begins
             chunk = np.arange(course_bounds[ci], course_bounds[ci + 1])
             gen.course_needles = {gen.pos(int(x)) for x in t.stitch[chunk]}
+            gen.realigned = {}
             ci += 1
             primary = {}
             yarn = int(t.yarn[v0])
@@ -393,6 +400,8 @@ def _place(gen: _Gen, aligned: tuple, represented: tuple, first: int) -> None:
     for loops, beds, needles in (aligned, represented):
         for s, b, n in zip(loops.tolist(), beds.tolist(), needles.tolist(), strict=True):
             here = bed.where.get(s)
+            if here is not None:
+                gen.realigned[s] = (BEDS[b], n)
             if here is not None and here != (BEDS[b], n) and not (here[1] == n and _stays(gen, s)):
                 moves.append((s, here, (BEDS[b], n)))
     if moves:
@@ -480,7 +489,9 @@ def _carry(gen: _Gen, chunk: np.ndarray) -> None:
     if gen.sides is None:
         gen.sides = right_left(g)
     right, left = gen.sides
-    home = {int(x): gen.pos(int(x)) for x in ids}
+    # where each stitch's loop belongs now: a later slice of the course may have laid the
+    # earlier slices' loops out anew (a ring rotated between a tube's two passes)
+    home = {int(x): gen.realigned.get(int(x), gen.pos(int(x))) for x in ids}
     rounds: list[list[tuple[int, Pos, Pos]]] = [[], [], [], []]  # upper, relief, lower, moves
     involved: set[int] = set()
     for cab in cables(g, ids, right, left):
@@ -509,7 +520,7 @@ def _carry(gen: _Gen, chunk: np.ndarray) -> None:
     waiting = {}
     for x, here, dst in moves:
         if bed.where[x] != here:  # a B move's loop, knitted on the facing needle
-            waiting[x] = bed.where[x]
+            waiting[x] = _across_from(gen, x, here, dst)
             continue
         if here[0] != dst[0]:
             # the layout put the two stitches on opposite beds (a ring rolled between
@@ -525,11 +536,15 @@ def _carry(gen: _Gen, chunk: np.ndarray) -> None:
         if int(g.instr[t]) == STACK and home[t] in landing and bed.where.get(t) == home[t]:
             lifted.append((t, _free_facing(gen, home[t])))
             bed.xfer(home[t], lifted[-1][1], t)
-    for round_moves in rounds:
-        for x, _here, dst in sorted(round_moves, key=lambda m: m[2][1] - m[1][1]):
-            if x in waiting:
-                bed.set_rack(racking_for(needle_of(waiting[x]), needle_of(dst)))
-                bed.xfer(waiting[x], dst, x)
+    ordered = [
+        m
+        for round_moves in rounds
+        for m in sorted(round_moves, key=lambda m: m[2][1] - m[1][1])
+        if m[0] in waiting
+    ]
+    for x, _here, dst in _landing_order(ordered, waiting):
+        bed.set_rack(racking_for(needle_of(waiting[x]), needle_of(dst)))
+        bed.xfer(waiting[x], dst, x)
     bed.set_rack(0)
     for t, away in lifted:
         bed.xfer(away, home[t], t)
@@ -540,6 +555,51 @@ def _carry(gen: _Gen, chunk: np.ndarray) -> None:
     for x in involved:
         if bed.loops.get(home[x], 0):
             bed.place(x, home[x])
+
+
+def _landing_order(moves: list, waiting: dict[int, Pos]) -> list:
+    """`moves` in their order, except that a loop never lands on a needle whose own loop
+    has not left yet: a loop that goes straight across the beds (`_carry`) waits on its
+    home needle until its turn, and a loop carried onto that needle (its course neighbour's
+    move) would be taken along with it. Such a landing waits until the needle is left.
+    Linear: each move is taken once, when the needle it lands on is free."""
+    holding: dict[Pos, int] = Counter(waiting[m[0]] for m in moves)
+    blocked: dict[Pos, list] = {}
+    out: list = []
+    for m in moves:
+        if holding.get(m[2], 0):
+            blocked.setdefault(m[2], []).append(m)
+            continue
+        ready = [m]
+        while ready:
+            x = ready.pop()
+            out.append(x)
+            left = waiting[x[0]]
+            holding[left] -= 1
+            if not holding[left]:
+                ready.extend(reversed(blocked.pop(left, [])))
+    if blocked:
+        raise Unsupported(
+            "loops carried straight across the beds would have to swap needles "
+            f"(onto {' '.join(f'{b}{n}' for b, n in sorted(blocked))})"
+        )
+    return out
+
+
+def _across_from(gen: _Gen, x: int, home: Pos, dst: Pos) -> Pos:
+    """Where the loop of B move `x` (knitted reversed, so waiting on the needle facing its
+    `home`) leaves from for `dst`. When the layout put `dst` on the bed facing `home` (a ring
+    rolled between the two stitches), the loop waits on the target's own bed, from which no
+    transfer reaches it: it first goes back to its home needle (emptied by the reversed
+    knit), and then straight across like an F move's."""
+    bed = gen.bed
+    at = bed.where[x]
+    if at[0] != dst[0]:
+        return at
+    if bed.loops.get(home, 0):
+        raise Unsupported(f"no free needle faces {at[0]}{at[1]} to carry its loop")
+    bed.xfer(at, home, x)
+    return home
 
 
 def _park(gen: _Gen, moves: list, toward: int) -> None:
@@ -588,13 +648,13 @@ def _cast_on(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, new: bool) -> list[Pos
     catch: list[Pos] = []
     if new:
         busy = {st.pos for st in plan} | {e.pos for e in entries}
-        # a purl (or an action that transfers) of the first course needs the needle
-        # facing it free
+        # a purl or a B move (or an action that transfers) of the first course needs the
+        # needle facing it free
         progs = gen.opts.actions
         busy |= {
             ("b" if e.pos[0] == "f" else "f", e.pos[1])
             for e in entries
-            if int(g.instr[e.stitch]) == PURL
+            if int(g.instr[e.stitch]) in REVERSED
             or (
                 0 <= int(g.action[e.stitch]) < len(progs)
                 and getattr(progs[int(g.action[e.stitch])], "transfers", False)
