@@ -9,10 +9,11 @@ detect cycles, and `-D` overrides are parsed by the same grammar.
 
 from __future__ import annotations
 
+import bisect
 import difflib
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from knitc.frontend import ast
 from knitc.lang import arith as _arith
@@ -31,9 +32,17 @@ class Word:
 
 @dataclass(frozen=True, slots=True)
 class Profile:
-    """A piecewise-linear function of t in [0, 1], clamped to its end values outside."""
+    """A piecewise-linear function of t in [0, 1], clamped to its end values outside.
+
+    `at` finds its segment by bisection: a width profile is read once per course, and a
+    profile of 20,000 points over 20,000 courses took 40 s when it was searched in order.
+    """
 
     points: tuple[tuple[float, float], ...]
+    _ts: tuple[float, ...] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_ts", tuple(t for t, _ in self.points))
 
     @staticmethod
     def constant(v: float) -> Profile:
@@ -47,10 +56,11 @@ class Profile:
         pts = self.points
         if t <= pts[0][0]:
             return pts[0][1]
-        for (t0, v0), (t1, v1) in zip(pts, pts[1:], strict=False):
-            if t <= t1:
-                return v0 if t1 == t0 else v0 + (v1 - v0) * (t - t0) / (t1 - t0)
-        return pts[-1][1]
+        i = bisect.bisect_left(self._ts, t)  # the first point at or after t: t0 < t <= t1
+        if i == len(pts):
+            return pts[-1][1]
+        (t0, v0), (t1, v1) = pts[i - 1], pts[i]
+        return v0 + (v1 - v0) * (t - t0) / (t1 - t0)
 
     def map(self, fn: Callable[[float], float]) -> Profile:
         return Profile(tuple((t, fn(v)) for t, v in self.points))
