@@ -308,3 +308,16 @@ def test_errors_from_expressions_keep_their_codes():
     assert run_error("let x = 1 / 0").code == "E305"
     assert run_error("let x = [1, 2][5]").code == "E306"
     assert run_error("let x = 1 + true").code == "E303"
+
+
+def test_length_of_a_range_is_len_also_beyond_the_machine_integers():
+    # `len` of range(10^300) raises OverflowError in Python; `length` computes it
+    from knitc.lang.interp import length
+
+    for start in range(-4, 5):
+        for stop in range(-4, 5):
+            for step in (-3, -2, -1, 1, 2, 3):
+                r = range(start, stop, step)
+                assert length(r) == len(r), r
+    assert length(range(10**300)) == 10**300
+    assert length(range(0, 10**300, 10**299)) == 10
