@@ -42,9 +42,16 @@ STD_PATTERNS = {
     ],
 }
 STD_SHAPERS = ["zigzag", "edges"]
-NUMBERS = st.one_of(
-    st.integers(-3, 12).map(str),
-    st.sampled_from(["0.5", "0.25", "-0.5", "1.5", "end", "end - 1", "1e999", "10^20", "0.0"]),
+_HOSTILE = ["1e999", "10^20", "10^400", "1e-320", "0.0", "1e300 * 10", "0 - 10^30"]
+NUMBERS = st.integers(0, 63).flatmap(
+    lambda k: (
+        st.sampled_from(_HOSTILE)  # one number in 64: the rest can reach the back end
+        if k == 0
+        else st.one_of(
+            st.integers(-3, 12).map(str),
+            st.sampled_from(["0.5", "0.25", "-0.5", "1.5", "end", "end - 1", "#n"]),
+        )
+    )
 )
 
 
@@ -230,6 +237,15 @@ def designs(draw) -> Design:
         actions.append(f"act{i}")
         items.append(_action(draw, f"act{i}"))
     for i in range(draw(st.integers(0, 2))):
+        # a pattern definition of the design's own, its parameters read by its queries
+        body = [
+            f"set {draw(st.sampled_from(INSTRUCTIONS))} where filter(wale % a == 0)",
+            f"set P where courses(0:b) and {_query(draw, nodes, 1)}",
+            *(_pattern_stmt(draw, nodes, actions, pats) for _ in range(draw(st.integers(0, 2)))),
+        ]
+        items.append(f"pattern def{i}(a = 2, b = 1) {{\n  " + "\n  ".join(body) + "\n}")
+        pats.append(("", f"def{i}"))
+    for i in range(draw(st.integers(0, 2))):
         # an extra piece of its own, shaped by a user shaper or a stdlib one
         shaper = f"shp{i}"
         if draw(st.booleans()):
@@ -251,7 +267,9 @@ def designs(draw) -> Design:
         items.append(f"pattern {target} {{\n  " + "\n  ".join(body) + "\n}")
     if "machine {" not in prog.text and draw(st.booleans()):
         items.append(_machine(draw))
-    order = draw(st.permutations(items[1:])) if draw(st.booleans()) else items[1:]
+    order = list(draw(st.permutations(items[1:])) if draw(st.booleans()) else items[1:])
+    if "#n" in "".join(order):
+        order.append(f"param n = {draw(st.integers(0, 6))}")
     text = "\n".join([items[0], *order]) + "\n"
     return Design(text, prog.defines)
 
