@@ -293,3 +293,23 @@ def test_params_that_double_a_list_are_e320():
     params = "param p0 = [0]\n" + "".join(f"param p{i + 1} = [#p{i}, #p{i}]\n" for i in range(20))
     errs = _errors(params + SHEET)
     assert errs and all(code == "E320" for code, *_ in errs)
+
+
+def test_the_shaper_runs_of_a_design_share_one_budget(monkeypatch):
+    # 40 widths, each (M, N) run once, each under the budget of a run: together bounded
+    import knitc.shaping.courses as courses
+
+    monkeypatch.setattr(courses, "SHAPERS_BUDGET", 20_000)
+    src = (
+        "sheet a { length: 41  width: [0: 6, 1: 46]  shaper: s }\n"
+        "shaper s(M, N) {\n  for i in range(1000) { }\n"
+        "  for i in range(M) { if i < N - M { i -> (2 * i, 2 * i + 1) } else { i -> i + N - M } }\n}\n"
+    )
+    assert _errors(src) == [
+        (
+            "E316",
+            "shaper `s` did not finish: the design's shaper programs may run 20,000 steps in all",
+            3,
+            3,
+        )
+    ]

@@ -321,3 +321,19 @@ def test_length_of_a_range_is_len_also_beyond_the_machine_integers():
                 assert length(r) == len(r), r
     assert length(range(10**300)) == 10**300
     assert length(range(0, 10**300, 10**299)) == 10
+
+
+def test_a_step_pool_is_shared_by_the_runs_that_hold_it():
+    # a shaper runs once per (M, N): a budget per run alone does not bound a design
+    from knitc.lang.interp import StepPool
+
+    pool = StepPool(250, "the design's shapers")
+    block = block_of("for i in range(100) { }")
+    first = Interpreter(words=(), pool=pool, budget=1000)
+    first.run(block)
+    first.run(block)  # 2 x 101 steps: 48 left
+    assert pool.left == 250 - 2 * 101
+    with pytest.raises(EvalError) as info:
+        Interpreter(words=(), pool=pool, budget=1000).run(block)
+    err = info.value
+    assert err.code == "E316" and "250 steps in all" in err.message and line_of(err) == 1

@@ -47,6 +47,20 @@ from knitc.source import UNKNOWN_SPAN, Span
 DEFAULT_BUDGET = 10_000_000
 """Statements plus loop iterations one run may execute."""
 
+SHAPERS_BUDGET = 50_000_000
+"""Statements plus loop iterations all the shaper runs of one design may execute together
+(a `StepPool`): a shaper runs once per (M, N) pair its node's courses need."""
+
+
+class StepPool:
+    """Steps that many runs share, on top of each run's own budget: a design's shaper runs
+    once per (M, N) its courses need, and 10,000,000 steps per run over thousands of pairs
+    would not end soon. `what` names the runs in messages ("the design's shapers")."""
+
+    def __init__(self, total: int, what: str):
+        self.total, self.left, self.what = total, total, what
+
+
 LOCAL_BUILTINS = {"range": (1, 3), "len": (1, 1)}
 """Functions of statement blocks on top of `evaluate.BUILTINS`, with their arity."""
 
@@ -143,6 +157,7 @@ class Interpreter(Evaluator):
         param: Callable[[str, Span], Value] | None = None,
         prop: Callable[[str | None, str, Span], Value] | None = None,
         budget: int = DEFAULT_BUDGET,
+        pool: StepPool | None = None,
         what: str = "the program",
     ):
         super().__init__(param or _no_param, prop or _no_prop)
@@ -152,6 +167,9 @@ class Interpreter(Evaluator):
         self.words = None if words is None else frozenset(words)
         self.on_map = on_map
         self.budget = budget
+        self.pool = pool
+        self._limit = budget
+        """This run's budget: `budget`, or what is left of the `pool` if that is less."""
         self.what = what
         self._constants = _Scope(None, dict(constants or {}), readonly=True)
         self._scope = self._constants
@@ -165,12 +183,15 @@ class Interpreter(Evaluator):
         """Execute `block` with `bindings` in scope; returns its top-level variables."""
         self._steps = 0
         self._loops = []
+        self._limit = self.budget if self.pool is None else min(self.budget, self.pool.left)
         top = _Scope(self._constants, dict(bindings or {}))
         saved, self._scope = self._scope, top
         try:
             self._stmts(block.stmts)
         finally:
             self._scope = saved
+            if self.pool is not None:
+                self.pool.left -= self._steps
         return top.vars
 
     def evaluate(self, e: ast.Node, bindings: Mapping[str, Value] | None = None) -> Value:
@@ -252,7 +273,7 @@ class Interpreter(Evaluator):
         self._loops.append((s, n))
         saved = self._scope
         try:
-            if n > self.budget - self._steps:  # each iteration costs a step: fail now
+            if n > self._limit - self._steps:  # each iteration costs a step: fail now
                 self._out_of_steps(s)
             for x in items:
                 self._tick(s)
@@ -273,7 +294,7 @@ class Interpreter(Evaluator):
     # -- the step budget
     def _tick(self, stmt: ast.Node, cost: int = 1) -> None:
         self._steps += cost
-        if self._steps > self.budget:
+        if self._steps > self._limit:
             self._out_of_steps(stmt)
 
     def _charge_lists(self, e: ast.Node, *values: Value) -> None:
@@ -284,21 +305,26 @@ class Interpreter(Evaluator):
             self._tick(e, cost)
 
     def _out_of_steps(self, stmt: ast.Node) -> None:
+        if self._limit < self.budget and self.pool is not None:
+            message = (
+                f"{self.what} did not finish: {self.pool.what} may run "
+                f"{self.pool.total:,} steps in all"
+            )
+        else:
+            message = f"{self.what} did not finish within {self.budget:,} steps"
         if self._loops:
             # Blame the longest active loop (the outermost one on ties): without `while` or
             # recursion, only a loop can run away.
             loop, n = max(self._loops, key=lambda ln: ln[1])
             raise EvalError(
                 "E316",
-                f"{self.what} did not finish within {self.budget:,} steps",
+                message,
                 loop.span,
                 f"this loop runs {n:,} times; is its bound right?"
                 if n < 10**15
                 else f"this loop runs {show(n)} times; is its bound right?",
             )
-        raise EvalError(
-            "E316", f"{self.what} did not finish within {self.budget:,} steps", stmt.span
-        )
+        raise EvalError("E316", message, stmt.span)
 
     # -- expressions
     def _Name(self, e: ast.Name) -> Value:

@@ -11,6 +11,7 @@ import numpy as np
 from knitc.diagnostics import Diagnostics
 from knitc.frontend.skeleton import ItfId, PrimNode, Skeleton
 from knitc.lang.evaluate import EvalError
+from knitc.lang.interp import SHAPERS_BUDGET, StepPool
 from knitc.shaping import stitch_graph as sg
 
 FRONT, BACK = 0, 1
@@ -186,6 +187,10 @@ class ShapeState:
     partner: dict[ItfId, ItfId]
     exit_course: dict[ItfId, Course] = field(default_factory=dict)
     user_maps: dict[tuple[str, int, int, int], np.ndarray] = field(default_factory=dict)
+    shaper_steps: StepPool = field(
+        default_factory=lambda: StepPool(SHAPERS_BUDGET, "the design's shaper programs")
+    )
+    """The steps every run of a user shaper in the design shares (`lang.interp.StepPool`)."""
     odd_changes: dict[tuple[str, int], int] = field(default_factory=dict)
     """(node, bed) -> how many of its course changes so far were by an odd number of stitches:
     the shapers' `turn` alternates with it (`shaping.shapers`)."""

@@ -56,7 +56,7 @@ import numpy as np
 
 from knitc.frontend import ast
 from knitc.lang.evaluate import EvalError, Value, round_half_up, show, type_name
-from knitc.lang.interp import DEFAULT_BUDGET, Interpreter, whole
+from knitc.lang.interp import DEFAULT_BUDGET, Interpreter, StepPool, whole
 from knitc.source import Span
 
 PREDEFINED = ("uniform", "center", "left", "right", "sides")
@@ -333,12 +333,14 @@ def run_user_shaper(
     param: Callable[[str, Span], Value] | None = None,
     prop: Callable[[str | None, str, Span], Value] | None = None,
     budget: int = DEFAULT_BUDGET,
+    pool: StepPool | None = None,
     turn: int = 0,
 ) -> np.ndarray:
     """Run a user shaper for M -> N (M <= N <= 2M) and return its validated `src` array.
 
     `param`/`prop` resolve `#name` and `@prop` in the program (the evaluator's hooks);
-    `turn` is bound to the name `turn` unless a parameter takes that name.
+    `turn` is bound to the name `turn` unless a parameter takes that name; `pool` holds the
+    steps the design's shaper runs share.
     Raises `EvalError` located in the program; ValueError if M, N are out of domain.
     """
     _check_domain(M, N)
@@ -351,7 +353,13 @@ def run_user_shaper(
         )
     collect = _Collector(M, N)
     interp = Interpreter(
-        words=(), on_map=collect, param=param, prop=prop, budget=budget, what=f"shaper `{name}`"
+        words=(),
+        on_map=collect,
+        param=param,
+        prop=prop,
+        budget=budget,
+        pool=pool,
+        what=f"shaper `{name}`",
     )
     bindings: dict[str, Value] = {
         "turn": turn,

@@ -228,7 +228,12 @@ def _link(state: ShapeState, node: PrimNode, a: Course, b: Course) -> None:
                 key = (str(shaper), small, large, turn)
                 if key not in state.user_maps:  # courses repeat: run each (M, N) once
                     state.user_maps[key] = shaper_map(
-                        program, small, large, turn=turn, param=state.param
+                        program,
+                        small,
+                        large,
+                        turn=turn,
+                        param=state.param,
+                        pool=state.shaper_steps,
                     )
                 src = state.user_maps[key]
         except EvalError as err:
