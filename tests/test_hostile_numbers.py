@@ -313,3 +313,22 @@ def test_the_shaper_runs_of_a_design_share_one_budget(monkeypatch):
             3,
         )
     ]
+
+
+def test_the_actions_of_a_design_share_one_budget(monkeypatch):
+    # 10,000 steps per stitch's step is no bound over two million stitches
+    import knitc.codegen.actions as codegen_actions
+
+    monkeypatch.setattr(codegen_actions, "ACTIONS_BUDGET", 2_000)
+    src = SHEET + "action x { main {\n  for i in range(100) { }\n  knit(dir)\n} }\n"
+    src += "pattern a { use x }\n"
+    errs = _errors(src, "machine")
+    assert errs == [
+        (
+            "E316",
+            "action `x` at f2: action `x` did not finish: "
+            "the design's actions may run 2,000 steps in all",
+            3,
+            3,
+        )
+    ]

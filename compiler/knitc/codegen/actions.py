@@ -50,7 +50,7 @@ made by the node's increase instead (the action is ignored there).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -64,8 +64,14 @@ from knitc.diagnostics import Note
 from knitc.frontend import ast
 from knitc.frontend.names import ACTION_WORDS
 from knitc.lang.evaluate import EvalError, Profile, Value, Word, arith, show, type_name
-from knitc.lang.interp import Host, Interpreter, whole
-from knitc.patterning.actions import STD_FILE, STEP_BUDGET, Program, std_source
+from knitc.lang.interp import Host, Interpreter, StepPool, whole
+from knitc.patterning.actions import (
+    ACTIONS_BUDGET,
+    STD_FILE,
+    STEP_BUDGET,
+    Program,
+    std_source,
+)
 from knitc.patterning.query import Coords, coords
 from knitc.source import UNKNOWN_SPAN, Span
 
@@ -99,6 +105,10 @@ class _State:
     visit: np.ndarray
     first: np.ndarray
     coords: Coords
+    steps: StepPool = field(
+        default_factory=lambda: StepPool(ACTIONS_BUDGET, "the design's actions")
+    )
+    """The steps all the stitches' actions share (`lang.interp.StepPool`)."""
 
     @staticmethod
     def of(gen) -> _State:
@@ -322,6 +332,7 @@ class _Stitch:
             words=ACTION_WORDS,
             param=self._param,
             budget=STEP_BUDGET,
+            pool=st.steps,
             what=f"action `{prog.name}`",
         )
 

@@ -46,6 +46,10 @@ STEP_BUDGET = 10_000
 """Statements one step of one stitch may execute: an action is a few operations; a step that
 needs more has a runaway loop (E316)."""
 
+ACTIONS_BUDGET = 50_000_000
+"""Statements the action steps of all the stitches of a design may execute together (E316):
+10,000 per step is little for one stitch and, over two million stitches, no bound at all."""
+
 KNIT = INSTRUCTIONS.index("K")
 
 
