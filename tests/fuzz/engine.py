@@ -60,8 +60,23 @@ def main() -> None:
         def one(data: bytes) -> None:
             fn(data)
 
-    atheris.Setup([sys.argv[0], *sys.argv[sep + 1 :]], one)
+    atheris.Setup([_self_command(target, sample), *sys.argv[sep + 1 :]], one)
     atheris.Fuzz()
+
+
+def _self_command(target: str, sample: Path) -> str:
+    """argv[0] for libFuzzer: in `-merge=1` mode it runs argv[0] again as a program, with only
+    its own flags, so argv[0] must be an executable that runs this engine on this target."""
+    import os
+    import shlex
+    import tempfile
+
+    fd, path = tempfile.mkstemp(prefix=f"engine-{target}-", suffix=".sh", dir=sample)
+    with os.fdopen(fd, "w") as f:
+        args = " ".join(map(shlex.quote, [sys.executable, __file__, target, str(sample), "--"]))
+        f.write(f'#!/bin/sh\nexec {args} "$@"\n')
+    os.chmod(path, 0o700)
+    return path
 
 
 def _preload() -> None:

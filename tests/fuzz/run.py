@@ -3,6 +3,7 @@
     python tests/fuzz/run.py --time 60                  every target, 60 s each (`make fuzz`)
     python tests/fuzz/run.py --time 1800 compile dat    some targets, 30 min each
     python tests/fuzz/run.py --reproduce dat crash-1f2e  run one target on saved inputs
+    python tests/fuzz/run.py --time 600 --merge knitout  keep what reached new code in the corpus
 
 Each target runs in its own process (engine.py: atheris, i.e. libFuzzer with coverage of the
 `knitc` package), seeded from tests/fuzz/corpus/ and tests/fuzz/regressions/, with a fresh
@@ -85,6 +86,8 @@ def _run_one(target: str, args: argparse.Namespace, seed: int, sample: Path) -> 
     tail = log.read_text(errors="replace").splitlines()
     stats = [line for line in tail if line.startswith("stat::")]
     print("\n".join(stats))
+    if args.merge:
+        _merge(target, work, sample)
     shutil.rmtree(work, ignore_errors=True)
     if rc == 0:
         return True
@@ -95,6 +98,19 @@ def _run_one(target: str, args: argparse.Namespace, seed: int, sample: Path) -> 
         print(f"-- reproducer ({found[-1]}):\n{_show(found[-1])}")
         print(f"-- run it again: python tests/fuzz/run.py --reproduce {target} {found[-1]}")
     return False
+
+
+def _merge(target: str, work: Path, sample: Path) -> None:
+    """Add to tests/fuzz/corpus/ the inputs of this run that reach code the corpus does not
+    (libFuzzer's `-merge=1`), so the next run starts from there."""
+    corpus = targets.CORPUS / targets.CORPUS_OF[target]
+    corpus.mkdir(parents=True, exist_ok=True)
+    before = len(list(corpus.iterdir()))
+    cmd = [sys.executable, str(HERE / "engine.py"), target, str(sample), "--", "-merge=1"]
+    subprocess.call(
+        [*cmd, str(corpus), str(work)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
+    print(f"== merged into {corpus}: {len(list(corpus.iterdir())) - before} new inputs")
 
 
 def _check_sample(sample: Path) -> bool:
@@ -130,6 +146,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rss-limit-mb", type=int, default=2048, help="memory before it is a blow-up")
     ap.add_argument("--artifacts", default="fuzz-artifacts", help="where reproducers are kept")
     ap.add_argument("--no-oracle", action="store_true", help="skip the independent machine")
+    ap.add_argument(
+        "--merge", action="store_true", help="add the run's new coverage to tests/fuzz/corpus/"
+    )
     ap.add_argument("--reproduce", metavar="TARGET", help="run TARGET once on each given file")
     args, rest = ap.parse_known_args(argv)
     if args.reproduce:
