@@ -332,3 +332,10 @@ def test_the_actions_of_a_design_share_one_budget(monkeypatch):
             3,
         )
     ]
+
+
+def test_a_needle_far_outside_the_machine_is_shown_short():
+    src = SHEET + "action x { main { knit(dir, needle + 10^300) } }\n"
+    src += "pattern a { use x where courses(2) and wales(3) }\n"
+    ((code, message, _, _),) = _errors(src, "machine")
+    assert code == "E722" and "needle f1e+300 is outside the machine" in message

@@ -455,7 +455,9 @@ class _Stitch:
         n = self.bed.prog.machine.needles
         if not 0 <= v.index < n:
             raise EvalError(
-                "E722", f"needle {v} is outside the machine (needles 0 to {n - 1})", UNKNOWN_SPAN
+                "E722",
+                f"needle {v.bed}{show(v.index)} is outside the machine (needles 0 to {n - 1})",
+                UNKNOWN_SPAN,
             )
         return v.bed, v.index
 
