@@ -142,7 +142,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("targets", nargs="*", help=f"targets to run (default: all of {', '.join(ALL)})")
     ap.add_argument("--time", type=int, default=60, help="seconds per target (default 60)")
     ap.add_argument("--seed", type=int, help="libFuzzer seed (default: a new one, printed)")
-    ap.add_argument("--timeout", type=int, default=20, help="seconds per input before it is a hang")
+    ap.add_argument(
+        "--timeout", type=int, default=60, help="seconds per input before it is a hang (60)"
+    )
     ap.add_argument("--rss-limit-mb", type=int, default=2048, help="memory before it is a blow-up")
     ap.add_argument("--artifacts", default="fuzz-artifacts", help="where reproducers are kept")
     ap.add_argument("--no-oracle", action="store_true", help="skip the independent machine")
