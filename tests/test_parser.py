@@ -356,7 +356,9 @@ def test_mixed_profile_is_an_error():
 def test_a_literal_beyond_the_float_range_is_an_error():
     # `1e999` parsed to infinity, which crashed the queries (an int of it) and the formatter
     msg = syntax_error("param x = 1e999")
-    assert "E110" in msg and "`1e999` is too large" in msg
+    assert "E110" in msg and "`1e999` is too large: the limit is ±1e+300" in msg
+    assert "E110" in syntax_error("param x = 2e300")
+    assert expr("1e300").value == 1e300
     assert expr("1e-999").value == 0.0  # too small is just zero
 
 

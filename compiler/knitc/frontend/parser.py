@@ -17,7 +17,6 @@ Two details make it pleasant to write in:
 
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass
 from functools import lru_cache
@@ -29,6 +28,7 @@ from lark.parsers.lalr_analysis import Shift
 
 from knitc.diagnostics import Diagnostics
 from knitc.frontend import ast
+from knitc.lang import arith
 from knitc.resources import grammar_text
 from knitc.source import SourceFile, Span
 
@@ -382,9 +382,11 @@ class _ToAst(Transformer):
         if len(text) > 300:
             raise _SyntaxProblem("E110", "number literal too long", self._tok(ch[0]))
         value: int | float = int(text) if re.fullmatch(r"\d+", text) else float(text)
-        if not math.isfinite(value):  # `1e999` would be infinity, and infinity is no size
+        if not abs(value) <= arith.LIMIT:  # `1e999` is infinity; no knitting size is near it
             raise _SyntaxProblem(
-                "E110", f"number literal `{text}` is too large for a number", self._tok(ch[0])
+                "E110",
+                f"number literal `{text}` is too large: the limit is ±{arith.LIMIT:g}",
+                self._tok(ch[0]),
             )
         return ast.Number(value, span=self._tok(ch[0]))
 
@@ -875,9 +877,10 @@ def parse_source(source: SourceFile, diags: Diagnostics) -> ast.Module | None:
         at = source.span(meta.start_pos, meta.end_pos) if not meta.empty else None
         diags.error(
             "E111",
-            f"expressions nest more than {MAX_NESTING} levels deep here",
+            f"expressions or blocks nest more than {MAX_NESTING} levels deep here",
             at,
-            hint="split the expression with `param`s or `let`s; no garment needs this depth",
+            hint="split the expression with `param`s or `let`s, or a deep `if` chain with "
+            "`else if`; no garment needs this depth",
         )
         return None
     try:
