@@ -498,6 +498,55 @@ fork.branches[1] -> b.bottom
         assert sorted(pos(g, s) for s in g.course_ids(c)) == expect[i]
 
 
+LAYOUT_PAST_THE_BASE = """\
+split s { degree: 1  folded: true  layout: [0.14] }
+tube base { length: 1  width: [0: 8, 1: 14] }
+s.base -> base.bottom
+tube b0 { length: 5  width: [0: 7, 1: 8]  shaper: left }
+b0.top -> s.branches[0]
+start b0.bottom
+"""
+LAYOUT_OVERLAP = """\
+machine { gauge: half }
+split s { degree: 3  folded: false  alignment: right  layout: [0.62, 0.69, 0.32] }
+tube base { length: 2  width: 16  gauge: half }
+base.top -> s.base
+sheet b0 { type: cylinder  length: 4  width: 7 }
+s.branches[0] -> b0.bottom
+sheet b1 { type: flat  length: 5  width: 1 }
+s.branches[1] -> b1.bottom
+tube b2 { length: 1  width: 7 }
+s.branches[2] -> b2.bottom
+"""
+
+
+@pytest.mark.parametrize(
+    "text,message",
+    [
+        # the branch ran one needle past the base: a wale went back in time
+        (LAYOUT_PAST_THE_BASE, "branch 0 of split `s` (8 stitches per bed from stitch 1)"),
+        # branches on one base stitch: a stitch with more than two wales
+        (LAYOUT_OVERLAP, "branches 0 and 1 of split `s` both lie on stitch 22"),
+    ],
+)
+def test_a_layout_that_does_not_fit_the_base_is_E534(text, message):
+    r = compile_source(text, "t.knit", until="stitch-graph")
+    assert [d.code for d in r.diagnostics] == ["E534"]
+    assert message in r.diagnostics.items[0].message
+    span = r.diagnostics.items[0].span
+    assert text[span.start : span.end].startswith("layout: [")  # at the property
+
+
+def test_an_unfolded_branch_may_wrap_around_the_base():
+    # from the middle of the back, round the left fold and along the front: a ring
+    g = build(
+        "tube base { length: 3  width: 4 }\nsplit s { degree: 1  folded: false  layout: [0.5] }\n"
+        "sheet f { type: flat  length: 3  width: 8 }\nbase.top -> s.base\ns.branches[0] -> f.bottom\n"
+    )
+    c = named(g, "s.branches[0]")
+    assert [pos(g, s) for s in g.course_ids(c)][:5] == [(1, 3), (1, 2), (1, 1), (1, 0), (0, 0)]
+
+
 # ---- connections --------------------------------------------------------------------------------
 
 

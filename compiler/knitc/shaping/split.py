@@ -63,6 +63,47 @@ def _branch_layout(
     ]
 
 
+def _layout_fits(
+    state: ShapeState, node: PrimNode, layout: list[tuple[int, int, bool, bool]], base_per_bed: int
+) -> bool:
+    """Whether every branch lies on the base and no two share a stitch of it; else E534 at
+    the `layout` property (only a designer's list can break this: `alignment` spreads the
+    branches inside the base, which E504 made large enough). A folded branch or one of a
+    flat base must end within the base's width per bed; an unfolded branch follows the ring
+    around the base and may wrap past its start, but never onto another branch. Without the
+    check a branch past the end had wales going back in time and two branches on one
+    stitch gave it more than two wales (internal errors of the stitch graph)."""
+    owner: dict[int, int] = {}
+    for i, (off, w, _tub, around) in enumerate(layout):
+        span = base_per_bed * (2 if around else 1)
+        message, hint = None, "start each branch after the end of the one before it"
+        if not around and off + w > span:
+            message = (
+                f"branch {i} of split `{node.name}` ({w} stitches per bed from stitch {off}) "
+                f"runs past the end of its base ({span} per bed)"
+            )
+            hint = f"start it at most {(span - w) / span:.3g} along the base"
+        else:
+            cols = (off + np.arange(w)) % span
+            hit = next((int(c) for c in cols.tolist() if c in owner), None)
+            if hit is not None:
+                message = (
+                    f"branches {owner[hit]} and {i} of split `{node.name}` both lie on "
+                    f"stitch {hit} of its base"
+                )
+            owner.update(dict.fromkeys(cols.tolist(), i))
+        if message is not None:
+            state.diags.error(
+                "E534",
+                message,
+                node.prop_spans.get("layout", node.span),
+                hint=f"{hint}, or leave out `layout` to spread the branches evenly",
+            )
+            state.failed = True
+            return False
+    return True
+
+
 def _branch_positions(
     off: int, width: int, tubular: bool, around: bool, base_per_bed: int
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -88,6 +129,8 @@ def build_split(state: ShapeState, node: PrimNode, visit: NodeVisit) -> None:
     base_itf = skel.interfaces[ItfId(node.name, "base")]
     base_per_bed = (base_itf.size or 0) // (2 if tubular else 1)
     layout = _branch_layout(state, node, base_per_bed, tubular)
+    if not _layout_fits(state, node, layout, base_per_bed):
+        return
     paths = [f"branches/{i}" for i in range(len(layout))]
 
     if visit.entries == ("base",):
