@@ -287,6 +287,8 @@ def test_type_errors(src):
 
 def test_number_is_not_equal_to_boolean():
     assert ev("1 == true") is False
+    assert ev("[1] == [true]") is False and ev("[[0]] != [[false]]") is True
+    assert ev("[1, [2]] == [1, [2]]") is True and ev("[1] == [1.0]") is True
 
 
 def test_negative_base_fractional_power_is_an_error():

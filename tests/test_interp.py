@@ -42,6 +42,16 @@ def line_of(err: EvalError) -> int:
 # ---- let, assignment, scoping ----------------------------------------------------------------
 
 
+def test_lists_of_booleans_are_not_lists_of_numbers():
+    assert run(
+        "let a = [1] == [true]\nlet b = range(2) == [0, true]\nlet c = range(2) == [0, 1]"
+    ) == {
+        "a": False,
+        "b": False,
+        "c": True,
+    }
+
+
 def test_let_and_assign():
     assert run("let x = 1\nx = x + 2\nlet y = x * 10") == {"x": 3, "y": 30}
 

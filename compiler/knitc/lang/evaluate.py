@@ -81,6 +81,19 @@ def _num_json(x: float) -> int | float:
 Value = int | float | bool | str | Word | Profile | tuple | range  # range: `interp` only
 
 
+def same_value(a: object, b: object) -> bool:
+    """The language's `==`: Python's, except that a boolean never equals a number, also
+    inside lists (`[1] == [true]` is false, as `1 == true` is). Lists are at most 100 deep
+    (E320), so the recursion is bounded; ranges are lists of their numbers."""
+    if isinstance(a, bool) or isinstance(b, bool):
+        return type(a) is type(b) and a == b
+    if isinstance(a, range) and isinstance(b, range):
+        return a == b  # by value, without walking them
+    if isinstance(a, tuple | range) and isinstance(b, tuple | range):
+        return len(a) == len(b) and all(same_value(x, y) for x, y in zip(a, b, strict=True))
+    return a == b
+
+
 def type_name(v: object) -> str:
     if isinstance(v, bool):
         return "a boolean"
@@ -310,7 +323,7 @@ class Evaluator:
             return b
         a, b = self.eval(e.left), self.eval(e.right)
         if e.op in ("==", "!="):
-            same = a == b and isinstance(a, bool) == isinstance(b, bool)
+            same = same_value(a, b)
             return same if e.op == "==" else not same
         if isinstance(a, Profile) or isinstance(b, Profile):
             return self._profile_arith(e, a, b)

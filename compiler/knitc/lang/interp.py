@@ -39,6 +39,7 @@ from knitc.lang.evaluate import (
     Value,
     Word,
     list_measure,
+    same_value,
     show,
     type_name,
 )
@@ -461,12 +462,9 @@ class Interpreter(Evaluator):
                     isinstance(a, tuple | range)
                     and isinstance(b, tuple | range)
                     and length(a) == length(b)
-                    and all(
-                        x == y and not isinstance(x, bool) and not isinstance(y, bool)
-                        for x, y in zip(a, b)
-                    )
+                    and all(same_value(x, y) for x, y in zip(a, b))
                 )
             else:
-                same = a == b and isinstance(a, bool) == isinstance(b, bool)
+                same = same_value(a, b)
             return same if e.op == "==" else not same
         return super()._Binary(e)
