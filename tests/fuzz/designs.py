@@ -20,27 +20,12 @@ from dataclasses import dataclass
 
 from hypothesis import strategies as st
 
+from strategies import INSTRUCTIONS
 from test_props_resolve import programs
+from test_stdlib_patterns import stdlib_patterns
 
-INSTRUCTIONS = "K P T M S FR1 FR2 FL1 FL2 BR1 BR2 BL1 BL2 XR+ XR- XL+ XL-".split()
 ACTIONS = ["knit", "purl", "tuck", "miss", "kickback", "split"]
-STD_PATTERNS = {
-    "std.stitches": ["rib", "seed", "garter", "basket", "eyelets", "cable", "tuck_stitch"],
-    "std.motifs": [
-        "crosses",
-        "seed_margin",
-        "mesh",
-        "short_holes",
-        "holy_margin",
-        "pointelle",
-        "leaf",
-        "zigzag_holes",
-        "chevron_lace",
-        "purl_noise",
-        "lacy_noise",
-        "cat",
-    ],
-}
+STD_PATTERNS = {m: stdlib_patterns(m) for m in ("std.stitches", "std.motifs")}
 STD_SHAPERS = ["zigzag", "edges"]
 _HOSTILE = ["1e999", "10^20", "10^400", "1e-320", "0.0", "1e300 * 10", "0 - 10^30"]
 NUMBERS = st.integers(0, 63).flatmap(
