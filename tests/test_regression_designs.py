@@ -24,6 +24,13 @@ left. A ring the layout rotates between a course's two passes had its moves carr
 needles the first pass knitted on (E602, or silently the wrong loops); they are carried from
 where the second pass's layout put them. A B move in the first course knitted onto a
 catching tuck's needle, which the yarn start then dropped.
+
+Splits: a split gave a branch its base's sides (folded) or its base the sum of its
+branches (unfolded) before the neighbour across a joint said otherwise, so the shape pass
+met connections whose ends disagreed: a tubular branch of one stitch (a division by zero),
+a flat base called tubular, a tubular base of an odd sum laid on too short a ring (a wale
+going back in time). What the neighbours say now wins, and a tubular base inferred from
+its branches holds whole rows on both beds.
 """
 
 from __future__ import annotations
@@ -121,6 +128,48 @@ B_MOVES_IN_THE_FIRST_COURSE = """\
 sheet s { type: cylinder  length: 3  width: [0: 6, 1: 8]  gauge: half }
 pattern s { set BR1 where wales(2).inverse() }
 """
+FLAT_JOINT_INTO_A_FOLDED_SPLIT = """\
+machine { gauge: half }
+split s { degree: 2  folded: true  alignment: right }
+tube base { length: 3  width: 8  shaper: none }
+s.base -> base.bottom
+tube b0 { length: 1  width: 7  shaper: sides }
+b0.top -> s.branches[0]
+joint b1 { rows: 4  width: 1 }
+sheet c1 { type: flat  length: 2  width: 1 }
+c1.top -> b1.bottom
+b1.top -> s.branches[1]
+start b0.bottom
+"""
+FLAT_JOINT_INTO_AN_UNFOLDED_SPLIT = """\
+machine { gauge: half }
+split s { degree: 1  folded: false  alignment: right }
+joint base { rows: 2  width: 1 }
+sheet base2 { type: flat  length: 2  width: 1 }
+base2.top -> base.bottom
+base.top -> s.base
+joint b0 { rows: 1  width: 1 }
+sheet c0 { type: flat  length: 2  width: 1 }
+s.branches[0] -> b0.bottom
+b0.top -> c0.bottom
+"""
+ODD_UNFOLDED_BASE_THROUGH_A_JOINT = """\
+split s { degree: 1  folded: false  alignment: left }
+joint base { rows: 4  width: 1 }
+tube base2 { length: 2  width: 3 }
+s.base -> base.bottom
+base.top -> base2.bottom
+sheet b0 { type: flat  length: 3  width: [0: 4, 1: 3] }
+b0.top -> s.branches[0]
+start b0.bottom
+"""
+ODD_UNFOLDED_BASE = """\
+split s { degree: 2  folded: false }
+sheet b0 { type: flat  length: 3  width: 3 }
+sheet b1 { type: flat  length: 3  width: 2 }
+b0.top -> s.branches[0]
+b1.top -> s.branches[1]
+"""
 
 DESIGNS = {
     **CROWNS,
@@ -139,6 +188,14 @@ DESIGNS = {
     "move-lands-after-the-straight-across-loop": LANDING_AFTER_THE_STRAIGHT_ACROSS_LOOP,
     "moves-on-a-ring-rotated-between-passes": MOVES_ON_A_RING_ROTATED_BETWEEN_PASSES,
     "b-moves-in-the-first-course": B_MOVES_IN_THE_FIRST_COURSE,
+    "b-moves-on-a-folded-merge": "machine { gauge: half }\n"
+    "split s { degree: 1  folded: true }\ntube base { length: 2  width: [0: 6, 1: 10] }\n"
+    "s.base -> base.bottom\ntube b0 { length: 3  width: 5 }\nb0.top -> s.branches[0]\n"
+    "pattern before { set BL2 }\n",
+    "flat-joint-into-a-folded-split": FLAT_JOINT_INTO_A_FOLDED_SPLIT,
+    "flat-joint-into-an-unfolded-split": FLAT_JOINT_INTO_AN_UNFOLDED_SPLIT,
+    "odd-unfolded-base-through-a-joint": ODD_UNFOLDED_BASE_THROUGH_A_JOINT,
+    "odd-unfolded-base": ODD_UNFOLDED_BASE,
 }
 
 

@@ -285,8 +285,15 @@ def infer_sizes(skel: Skeleton) -> None:
                 itf.sides = 2 if tub else 1
                 itf.size = _width_at(node, t) * itf.sides
 
-    changed = True
-    while changed:
+    # What the neighbours say wins over what a split infers for itself (its base holding
+    # the sum of its branches, a folded split's sides on its branches, an unfolded one's
+    # tubular base): those only fill in what nothing else fixes. The other order let a
+    # split give a branch the base's sides, or a tubular base an odd sum, before the
+    # neighbour on the other side (through a joint) said otherwise, and the shape pass got
+    # a connection whose two ends disagree (internal errors).
+    changed, splits = True, False
+    while changed or not splits:
+        splits = not changed
         changed = False
 
         def set_(itf: Interface, size: int | None, sides: int | None) -> None:
@@ -308,16 +315,15 @@ def infer_sizes(skel: Skeleton) -> None:
                 bot, top = paths
                 set_(bot, top.size, top.sides)
                 set_(top, bot.size, bot.sides)
-            elif node.kind == "split":
+            elif node.kind == "split" and splits:
                 base, branches = paths[0], paths[1:]
                 if all(b.size is not None for b in branches):
                     all_sides = {b.sides for b in branches}
                     folded_sides = all_sides.pop() if len(all_sides) == 1 else None
-                    set_(
-                        base,
-                        sum(b.size for b in branches if b.size is not None),
-                        folded_sides if node.props["folded"] else None,
-                    )
+                    total = sum(b.size for b in branches if b.size is not None)
+                    if (base.sides or (folded_sides if node.props["folded"] else 2)) == 2:
+                        total += total % 2  # a tubular base holds whole rows on both beds
+                    set_(base, total, folded_sides if node.props["folded"] else None)
                 unknown = [b for b in branches if b.size is None]
                 if base.size is not None and len(unknown) == 1 and unknown[0].state != "connected":
                     rest = base.size - sum(b.size for b in branches if b.size is not None)

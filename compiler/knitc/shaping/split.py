@@ -77,12 +77,12 @@ def _layout_fits(
     for i, (off, w, _tub, around) in enumerate(layout):
         span = base_per_bed * (2 if around else 1)
         message, hint = None, "start each branch after the end of the one before it"
-        if not around and off + w > span:
+        if w > span or (not around and off + w > span):
             message = (
                 f"branch {i} of split `{node.name}` ({w} stitches per bed from stitch {off}) "
                 f"runs past the end of its base ({span} per bed)"
             )
-            hint = f"start it at most {(span - w) / span:.3g} along the base"
+            hint = f"start it at most {max(span - w, 0) / span:.3g} along the base"
         else:
             cols = (off + np.arange(w)) % span
             hit = next((int(c) for c in cols.tolist() if c in owner), None)
