@@ -6,7 +6,7 @@ graph, which must verify and satisfy the properties below; then all three tracer
 (`trace_courses`, `trace_rules` with one and two passes) must produce traces that verify
 and that pass the visit-by-visit checks of test_trace.py.
 
-Two kinds of generated programs are set aside, each counted with `hypothesis.event` (run
+One kind of generated program is set aside, counted with `hypothesis.event` (run
 pytest with `--hypothesis-show-statistics` to see how many):
 
 * E530 and E532: the generator writes width profiles and joint layouts freely, so some
@@ -14,21 +14,12 @@ pytest with `--hypothesis-show-statistics` to see how many):
   joint's short rows could start where the yarn cannot reach them. The shape pass rejects
   those with E530 / E532, correctly; they are filtered with `assume`. No other error is
   allowed.
-* KNOWN BUG: the shape pass still crashes on some generated garments whose interfaces
-  disagree on their number of sides around a split (a folded split with both flat and
-  tubular branches, or a flat branch that makes a folded base flat while a tube or joint
-  meets it). The minimal cases in test_stitch_graph.py are fixed; richer combinations
-  still fail. A crash inside `knitc.shaping.shape` on such a program is skipped (with an
-  `event`), not failed; any other exception fails. KNITC_STRICT_PROPS=1 fails on those
-  too, to work on them. (Joints whose first row holds the yarn, one-course sheets with two
-  widths, closed ends of shared one-course tubes and zigzag closings into joints were
-  fixed; they are regression cases in test_stitch_graph.py.)
+* no exception is skipped: the shape-pass crashes on garments whose interfaces disagreed on
+  their sides around a split (once skipped here as a known bug) are fixed, and their minimal
+  cases are regression designs (test_stitch_graph.py, test_regression_designs.py).
 """
 
 from __future__ import annotations
-
-import os
-import traceback
 
 import numpy as np
 from hypothesis import HealthCheck, assume, event, given, note, settings
@@ -51,7 +42,6 @@ SETTINGS = settings(
         HealthCheck.filter_too_much,
     ],
 )
-STRICT = os.environ.get("KNITC_STRICT_PROPS") == "1"
 SHAPER_REJECTS = {"E530", "E532", "E533"}
 """Designer errors of the shape pass that valid-looking generated programs can hit: a
 course more than doubling or halving, short rows the yarn cannot reach, short rows right
@@ -61,54 +51,11 @@ after a zigzag closing."""
 # ---- compiling, with the filters described above ---------------------------------------------
 
 
-def _sides_disagree(skel: Skeleton) -> bool:
-    """Interfaces that disagree on their number of sides where the shape pass trusts them:
-    across a connection to a split or joint, between a joint's two ends, or between a split
-    branch and its base (folded: the base's sides; unfolded: flat)."""
-
-    def sides(node: str, path: str) -> int | None:
-        return skel.interfaces[ItfId(node, path)].sides
-
-    for c in skel.connections:
-        kinds = {skel.nodes[c.a.node].kind, skel.nodes[c.b.node].kind}
-        if kinds & {"split", "joint"} and skel.interfaces[c.a].sides != skel.interfaces[c.b].sides:
-            return True
-    for node in skel.nodes.values():
-        if node.kind == "joint" and sides(node.name, "bottom") != sides(node.name, "top"):
-            return True
-        if node.kind == "split":
-            want = sides(node.name, "base") if node.props["folded"] else 1
-            if any(sides(node.name, p) != want for p in node.interface_paths[1:]):
-                return True
-    return False
-
-
-def _known_bug(prog: Program, exc: BaseException) -> str | None:
-    """Which known shape-pass crash this is, or None (see the module docstring)."""
-    frames = traceback.extract_tb(exc.__traceback__)
-    if not any(f.filename.replace("\\", "/").endswith("knitc/passes/shape.py") for f in frames):
-        return None
-    skel = compile_source(prog.text, "gen.knit", defines=prog.defines, until="skeleton").skeleton
-    if skel is None:
-        return None
-    if _sides_disagree(skel):
-        return "interfaces around a split disagree on their sides"
-    return None
-
-
 def compile_graph(prog: Program):
     """(result, graph) for a generated program, or reject it (see the module docstring)."""
     note(prog.text)
     note(f"defines: {prog.defines}")
-    try:
-        r = compile_source(prog.text, "gen.knit", defines=prog.defines, until="stitch-graph")
-    except (AssertionError, ValueError, IndexError) as exc:
-        bug = None if STRICT else _known_bug(prog, exc)
-        if bug is None:
-            raise
-        event(f"skipped, known shape-pass crash: {bug}")
-        assume(False)
-        raise  # unreachable
+    r = compile_source(prog.text, "gen.knit", defines=prog.defines, until="stitch-graph")
     codes = {d.code for d in r.diagnostics if d.is_error}
     for code in codes & SHAPER_REJECTS:
         event(f"filtered: {code}")
