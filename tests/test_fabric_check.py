@@ -177,3 +177,16 @@ def test_the_check_reports_what_is_broken_and_nothing_else(name):
     if stitch is not None:  # and it is reported where it is, or on the next course's stitch
         near = {stitch} | {int(k) for k in r.graph.wale_next[stitch] if k >= 0}
         assert any(m.stitch in near for m in found if m.kind in kinds), "\n".join(map(str, found))
+
+
+def test_a_tube_closed_two_to_one_before_a_flat_sheet_is_no_one_sided_seam():
+    # W501: the tube's last course is closed onto one bed, so the seam is on that bed only,
+    # as designed (make fuzz found the check calling it a one-sided seam).
+    from fabric import assert_knits_as_designed
+
+    r = build(
+        "tube sleeve { length: 6  width: 5 }\nsheet flap { type: flat  length: 4  width: 5 }\n"
+        "sleeve.top -> flap.bottom\nstart sleeve.bottom\n"
+    )
+    assert any(d.code == "W501" for d in r.diagnostics)
+    assert_knits_as_designed([r])

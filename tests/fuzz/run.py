@@ -113,7 +113,7 @@ def _merge(target: str, work: Path, sample: Path) -> None:
     print(f"== merged into {corpus}: {len(list(corpus.iterdir())) - before} new inputs")
 
 
-def _check_sample(sample: Path) -> bool:
+def _check_sample(sample: Path, artifacts: Path) -> bool:
     """The designs the fuzzers compiled, on the independent machine, as fabric."""
     from fabric import assert_knits_as_designed
     from knitc.driver import compile_file
@@ -133,6 +133,14 @@ def _check_sample(sample: Path) -> bool:
         assert_knits_as_designed([r for _, r in good], names=[str(f) for f, _ in good])
     except AssertionError as exc:
         print(f"!! the independent machine disagrees:\n{exc}")
+        kept = artifacts / "oracle"
+        kept.mkdir(parents=True, exist_ok=True)
+        for f, _ in good:
+            if str(f) in str(exc):
+                for part in (f, f.with_suffix(".defines")):
+                    if part.exists():
+                        shutil.copy(part, kept / part.name)
+                print(f"-- the design ({kept / f.name}):\n{_show(f)}")
         return False
     return True
 
@@ -167,7 +175,7 @@ def main(argv: list[str] | None = None) -> int:
     for i, t in enumerate(chosen):
         ok = _run_one(t, args, seed + i, sample) and ok
     if not args.no_oracle and os.environ.get("KNITC_FUZZ_ORACLE", "1") != "0":
-        ok = _check_sample(sample) and ok
+        ok = _check_sample(sample, Path(args.artifacts)) and ok
     shutil.rmtree(sample, ignore_errors=True)
     print("== fuzz: " + ("no bug found" if ok else "BUGS FOUND (see above)"))
     return 0 if ok else 1
