@@ -5,7 +5,6 @@ independent oracle on valid and broken programs (the oracle stays the judge).
 
 from __future__ import annotations
 
-import time
 from dataclasses import replace
 
 import pytest
@@ -453,7 +452,8 @@ def test_every_code_is_distinct():
     assert all(c[0] in "EW" and c[1] == "8" for c in CODES.values())
 
 
-def test_fast_enough():
+def test_a_long_plain_program_is_clean():
+    # 100,000 knits; how fast this is belongs to `make bench` (the tube series), not here.
     p = MachineProgram()
     p.inhook(3)
     for k in range(500, 0, -2):
@@ -468,9 +468,7 @@ def test_fast_enough():
     p.outhook(3)
     for k in range(1, 501):
         p.drop(Needle("f", k))
-    t = time.perf_counter()
     assert simulate(p) == []
-    assert time.perf_counter() - t < 5.0
 
 
 # ---- agreement with the oracle ------------------------------------------------------------------
