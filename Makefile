@@ -6,6 +6,7 @@
 #   make explore    the test suite with fresh random hypothesis examples
 #   make fuzz       coverage-guided fuzzing of every target, FUZZ_TIME s each (default 60;
 #                   CI runs it after the tests); make fuzz-long: 30 minutes each
+#   make coverage   the test suite under coverage.py; fails below 95 % of compiler/knitc's lines
 #   make lint       ruff check, ruff format --check, mypy (what CI runs after the tests)
 #   make fmt-check  ruff format --check (make fmt applies it)
 #   make clean      remove build artifacts and caches (make distclean also removes .venv)
@@ -35,13 +36,14 @@ ORACLE_BASE_PYTHON ?= $(shell \
   done)
 
 .DEFAULT_GOAL := help
-.PHONY: help venv install run test explore fuzz fuzz-long lint fmt fmt-check clean distclean oracle-venv oracle-clean bench
+.PHONY: help venv install run test explore fuzz fuzz-long coverage lint fmt fmt-check clean distclean oracle-venv oracle-clean bench
 
 help:
 	@echo "make run        install knitc into .venv and compile $(EXAMPLE) to Knitout"
 	@echo "make test       install knitc and its test extra into .venv, run pytest"
 	@echo "make explore    the test suite with fresh random hypothesis examples each run"
 	@echo "make fuzz       fuzz every target for FUZZ_TIME seconds (60);  make fuzz-long: 30 min each"
+	@echo "make coverage   the suite under coverage: line coverage of compiler/knitc, at least 95 %"
 	@echo "make lint       ruff check, ruff format --check and mypy on $(SRC)"
 	@echo "make fmt-check  ruff format --check $(SRC)   (make fmt: reformat)"
 	@echo "make venv       create .venv if missing;  make install: (re)install knitc into it"
@@ -82,6 +84,13 @@ explore: venv oracle-venv
 	@rm -rf build
 	$(PIP) install -q ".[test]"
 	KNITC_HYPOTHESIS=explore $(BIN)/python -m pytest
+
+# Line coverage of compiler/knitc by the test suite; fails below 95 %.
+coverage: venv oracle-venv
+	@rm -rf build
+	$(PIP) install -q -e ".[test]"
+	$(BIN)/python -m coverage run --source=compiler/knitc -m pytest -p no:cacheprovider
+	$(BIN)/python -m coverage report --skip-covered --fail-under=95
 
 # Fuzzing (tests/fuzz/run.py): each target under libFuzzer with fresh seeds, a crash, hang or
 # blow-up prints its reproducer and fails; then a sample of the compiled designs runs on the
