@@ -26,14 +26,7 @@ ROOT = Path(__file__).resolve().parent.parent
 CORPUS = sorted((ROOT / "tests" / "fixtures" / "dat").glob("*.dat")) + sorted(
     (ROOT / "tests" / "fixtures" / "knitskel_dat").glob("*.dat")
 )
-R, L, N = 6, 7, 1  # direction codes
-
-
-def row(direction: int, slots: dict[int, int], **options: int) -> DatPass:
-    p = DatPass(direction=direction, slots=dict(slots))
-    for name, value in {"R9": 1, "L4": 10, **options}.items():
-        p.set(name, value)
-    return p
+from test_dat_read import L, N, R, row  # noqa: E402,F401  the pass-row helper and codes
 
 
 def dat(*passes: DatPass) -> bytes:
