@@ -129,7 +129,8 @@ def _main_parser() -> argparse.ArgumentParser:
         description="Compile a knitc garment description (.knit) for a knitting machine.\n"
         "Subcommands: `knitc check FILE`, `knitc fmt [--check] FILE...`, "
         "`knitc k2dat IN.k -o OUT.dat`, `knitc dat2k IN.dat -o OUT.k`, "
-        "`knitc view FILE --bed|--chart|--shape|--html -o OUT`, `knitc lint IN.k`.",
+        "`knitc view FILE --bed|--chart|--shape|--html -o OUT`, `knitc lint IN.k`, "
+        "`knitc lsp` (the language server, for editors: docs/editors.md).",
         epilog=EXAMPLES,
     )
     p.add_argument("file", metavar="FILE", help="the .knit design to compile")
@@ -638,13 +639,17 @@ def main(argv: list[str] | None = None) -> int:
             (
                 i
                 for i, a in enumerate(argv)
-                if a in ("check", "fmt", "k2dat", "dat2k", "view", "lint")
+                if a in ("check", "fmt", "k2dat", "dat2k", "view", "lint", "lsp")
                 and (i == 0 or argv[i - 1] not in _VALUED)
             ),
             None,
         )
         if sub is not None:
             rest = argv[:sub] + argv[sub + 1 :]
+            if argv[sub] == "lsp":
+                from knitc.lsp import main as lsp_main
+
+                return lsp_main(rest)
             if argv[sub] == "check":
                 return _cmd_check(_check_parser().parse_args(rest))
             if argv[sub] == "k2dat":

@@ -92,6 +92,15 @@ class SourceFile:
         end = self.text.find("\n", start)
         return self.text[start:] if end < 0 else self.text[start:end]
 
+    @property
+    def line_count(self) -> int:
+        """How many lines the text has (a final newline starts an empty last line)."""
+        return len(self._line_starts)
+
+    def line_start(self, line: int) -> int:
+        """The code-point offset where 1-based `line` starts (clamped to the text)."""
+        return self._line_starts[max(1, min(line, len(self._line_starts))) - 1]
+
     def position(self, offset: int) -> tuple[int, int]:
         """1-based (line, column) of a code-point offset."""
         offset = max(0, min(offset, len(self.text)))

@@ -205,12 +205,7 @@ class _Resolver:
     def _check_budget(self, nodes: dict[str, sk.PrimNode]) -> None:
         """Refuse a design larger than knitc compiles (E512) before any stitch is made:
         every property may be in range and the product still need tens of gigabytes."""
-        sizes = {}
-        for name, n in nodes.items():
-            if n.kind in ("sheet", "tube") and isinstance(n.props.get("width"), Profile):
-                width = max(cast(Profile, n.props["width"]).values())
-                sides = 1 if n.tubular is False else 2
-                sizes[name] = int(cast(int, n.props["length"])) * math.ceil(width) * sides
+        sizes = sk.stitch_estimate(nodes)
         total = sum(sizes.values())
         if total > self.max_stitches:
             big = max(sizes, key=lambda k: sizes[k])

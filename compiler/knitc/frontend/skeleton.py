@@ -12,6 +12,7 @@ stable dump behind `knitc --emit skeleton`.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, cast
 
@@ -191,6 +192,19 @@ class PrimNode:
             t = self.props["type"]
             return None if t == "auto" else t == "cylinder"
         return None
+
+
+def stitch_estimate(nodes: dict[str, PrimNode]) -> dict[str, int]:
+    """About how many stitches each sheet and tube will have (length × widest width × sides),
+    from its properties alone: the budget check (E512) and the language server, which
+    decides by it whether shaping is quick enough to run while the designer types."""
+    sizes: dict[str, int] = {}
+    for name, n in nodes.items():
+        width = n.props.get("width")
+        if n.kind in ("sheet", "tube") and isinstance(width, Profile):
+            sides = 1 if n.tubular is False else 2
+            sizes[name] = int(cast(int, n.props["length"])) * math.ceil(max(width.values())) * sides
+    return sizes
 
 
 @dataclass(frozen=True)
