@@ -15,11 +15,13 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 from knitc import driver
 from knitc.diagnostics import Diagnostics
 from knitc.frontend import ast
 from knitc.frontend import skeleton as sk
+from knitc.lsp import index as ix
 from knitc.lsp.positions import UTF16, Locator
 from knitc.lsp.settings import Settings
 from knitc.shaping import stitch_graph as sg
@@ -66,7 +68,13 @@ class Analysis:
         return self.result.graph
 
     def locator(self, encoding: str = UTF16) -> Locator:
+        """Positions in this text (a stale `module`'s spans are in an earlier one)."""
         return Locator(self.source, encoding)
+
+    @cached_property
+    def index(self) -> ix.Index:
+        """The names `module` declares and uses (empty when nothing ever parsed)."""
+        return ix.build(self.module) if self.module is not None else ix.Index()
 
 
 def analyse(
