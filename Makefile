@@ -12,6 +12,8 @@
 #   make clean      remove build artifacts and caches (make distclean also removes .venv)
 #   make oracle-venv  create .venv-oracle, the independent Knitout oracle's own venv
 #                     (make test does it; make oracle-clean removes it)
+#   make editors-deps npm ci in editors/vscode: the VS Code extension's grammar test tools
+#                     (make test does it when the lock file changed; skipped without npm)
 
 VENV    := .venv
 BIN     := $(VENV)/bin
@@ -36,7 +38,7 @@ ORACLE_BASE_PYTHON ?= $(shell \
   done)
 
 .DEFAULT_GOAL := help
-.PHONY: help venv install run test explore fuzz fuzz-long coverage lint fmt fmt-check clean distclean oracle-venv oracle-clean bench
+.PHONY: help venv install run test explore fuzz fuzz-long coverage lint fmt fmt-check clean distclean oracle-venv oracle-clean bench editors-deps
 
 help:
 	@echo "make run        install knitc into .venv and compile $(EXAMPLE) to Knitout"
@@ -49,6 +51,7 @@ help:
 	@echo "make venv       create .venv if missing;  make install: (re)install knitc into it"
 	@echo "make clean      remove build artifacts and caches;  make distclean: also .venv"
 	@echo "make oracle-venv  create $(ORACLE_VENV) (the Knitout oracle);  make oracle-clean: remove it"
+	@echo "make editors-deps npm ci in editors/vscode (the grammar tests' tools), when its lock file changed"
 
 # The venv is created only if missing (its python is the stamp).
 venv: $(BIN)/python
@@ -73,7 +76,7 @@ run: install
 	@echo "make run: compiled '$(EXAMPLE)' to Knitout ($(EXAMPLE:.knit=.k)); see README for" \
 	  "what the back end supports so far."
 
-test: venv oracle-venv
+test: venv oracle-venv editors-deps
 	@rm -rf build
 	$(PIP) install -q ".[test]"
 	$(BIN)/python -m pytest
@@ -148,3 +151,19 @@ oracle-venv:
 
 oracle-clean:
 	rm -rf $(ORACLE_VENV)
+
+# The VS Code extension's npm packages (editors/vscode), which tests/test_editors.py runs the
+# grammar tests with. npm writes node_modules/.package-lock.json on every install, so it is the
+# stamp: `npm ci` runs again only when package-lock.json is newer. Without npm, or if npm ci
+# fails, this prints a notice and succeeds; the tests then skip (or, under CI, fail saying so).
+editors-deps: editors/vscode/node_modules/.package-lock.json
+	@:
+
+editors/vscode/node_modules/.package-lock.json: editors/vscode/package-lock.json
+	@if command -v npm >/dev/null 2>&1; then \
+	  echo "npm ci in editors/vscode"; \
+	  cd editors/vscode && { npm ci --no-audit --no-fund --loglevel=error >/dev/null && touch node_modules/.package-lock.json \
+	    || echo "make editors-deps: npm ci failed in editors/vscode, so the editor grammar tests cannot run"; }; \
+	else \
+	  echo "make editors-deps: npm is not on PATH, so the editor grammar tests (tests/test_editors.py) cannot run"; \
+	fi
