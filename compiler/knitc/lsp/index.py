@@ -5,8 +5,11 @@ Navigation (definition, references, rename, symbols), hover and completion all s
 five kinds with one namespace each: design parameters (`param p`, used as `#p`), nodes
 (`tube body`, used in interfaces `body.top`, layers `pattern body {…}` and references
 `@body.length`), and the definitions a module declares or imports: patterns (`apply p(…)`),
-stitch actions (`use a`) and shapers (`shaper: s(…)`). Locals of a body (`let`, `for`,
-pattern and shaper parameters) are not indexed.
+stitch actions (`use a`) and shapers (`shaper: s`, a word that is not one of the built-in
+shapers). A node is also named inside the strings of the queries `shape("node")` and
+`itf("node.top")`. The names of an import list (`import std.stitches (rib)`) are `Ref`s of
+kind `import`: which kind of definition each is, only the imported module knows. Locals of
+a body (`let`, `for`, pattern and shaper parameters) are not indexed.
 """
 
 from __future__ import annotations
@@ -15,9 +18,13 @@ import bisect
 from dataclasses import dataclass, field
 
 from knitc.frontend import ast
+from knitc.frontend.skeleton import SHAPERS
 from knitc.source import Span
 
 KINDS = ("param", "node", "pattern", "action", "shaper")
+
+NODE_QUERIES = ("shape", "itf")
+"""Pattern queries whose string argument starts with a node's name."""
 
 
 @dataclass(frozen=True)
@@ -81,7 +88,6 @@ def _name_span(token: Span, skip: int, length: int) -> Span:
 
 def build(module: ast.Module) -> Index:
     index = Index()
-    shapers = {i.name.name for i in module.items if isinstance(i, ast.ShaperDef)}
     for item in module.items:
         _declare(index, item)
     for item in module.items:
@@ -93,7 +99,7 @@ def build(module: ast.Module) -> Index:
         if isinstance(item, ast.PatternLayer) and item.target.name not in ("before", "after"):
             index.refs.append(Ref("node", item.target.name, item.target.span))
         for node in item.walk():
-            _use(index, node, shapers)
+            _use(index, node)
     items: list[Symbol | Ref] = [*index.symbols, *index.refs]
     items.sort(key=lambda x: x.span.start)
     index._sorted = items
@@ -114,7 +120,7 @@ def _declare(index: Index, item: ast.Node) -> None:
         index.symbols.append(Symbol(kind, name.name, name.span, item))
 
 
-def _use(index: Index, node: ast.Node, shapers: set[str]) -> None:
+def _use(index: Index, node: ast.Node) -> None:
     if isinstance(node, ast.ParamRef):
         index.refs.append(Ref("param", node.name, _name_span(node.span, 1, len(node.name))))
     elif isinstance(node, ast.PropRef) and node.node is not None:
@@ -125,7 +131,46 @@ def _use(index: Index, node: ast.Node, shapers: set[str]) -> None:
         index.refs.append(Ref("pattern", node.pattern.name, node.pattern.span))
     elif isinstance(node, ast.UseStmt):
         index.refs.append(Ref("action", node.action.name, node.action.span))
-    elif isinstance(node, ast.Prop) and node.name.name == "shaper":
-        target = node.value.func if isinstance(node.value, ast.Call) else node.value
-        if isinstance(target, ast.Name) and target.id in shapers:
+    elif isinstance(node, ast.NodeDecl):
+        _shaper_use(index, node)
+    elif isinstance(node, ast.Call):
+        _query_node(index, node)
+
+
+def _shaper_use(index: Index, decl: ast.NodeDecl) -> None:
+    """`shaper: s` names a shaper program (declared here or imported) unless `s` is one of
+    the built-in shapers, which win over a program of the same name."""
+    for prop in decl.props:
+        if prop.name.name != "shaper":
+            continue
+        target = prop.value.func if isinstance(prop.value, ast.Call) else prop.value
+        if isinstance(target, ast.Name) and target.id not in SHAPERS:
             index.refs.append(Ref("shaper", target.id, target.span))
+        elif isinstance(target, ast.String) and target.value not in SHAPERS:
+            inner = _string_name(target, target.value)
+            if inner is not None:
+                index.refs.append(Ref("shaper", target.value, inner))
+
+
+def _query_node(index: Index, call: ast.Call) -> None:
+    """The node named in `shape("node")` or `itf("node.top")`."""
+    if not (isinstance(call.func, ast.Name) and call.func.id in NODE_QUERIES and call.args):
+        return
+    arg = call.args[0]
+    if not isinstance(arg, ast.String):
+        return
+    node, dot, _ = arg.value.partition(".")
+    if call.func.id == "itf" and not dot:
+        return  # `itf("top")`: the interface of the node being patterned
+    inner = _string_name(arg, node)
+    if inner is not None and node.isidentifier():
+        index.refs.append(Ref("node", node, inner))
+
+
+def _string_name(string: ast.String, name: str) -> Span | None:
+    """The span of `name` at the start of a string literal's text, when the literal is
+    written plainly (no escapes: then its value is its text between the quotes)."""
+    written = string.span.end - string.span.start - 2
+    if written != len(string.value) or string.span.line != string.span.end_line:
+        return None
+    return _name_span(string.span, 1, len(name))
