@@ -45,7 +45,7 @@ def apply(text: str, edits: Sequence[types.TextEdit]) -> str:
             return len(text)
         return starts[p.line] + units_to_column(lines[p.line], p.character, UTF16)
 
-    spans = sorted(((offset(e.range.start), offset(e.range.end), e.new_text) for e in edits))
+    spans = sorted((offset(e.range.start), offset(e.range.end), e.new_text) for e in edits)
     for start, end, new in reversed(spans):
         text = text[:start] + new + text[end:]
     return text
