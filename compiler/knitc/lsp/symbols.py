@@ -783,7 +783,8 @@ def register(server: KnitServer) -> None:
     async def find_symbols(
         ls: KnitServer, params: types.WorkspaceSymbolParams
     ) -> list[types.SymbolInformation] | None:
-        analyses = list(ls.analyses.values())
+        found = [await ls.analysis_for(uri) for uri in list(ls.workspace.text_documents)]
+        analyses = [a for a in found if a is not None]
         files = open_files(analyses)
         if ls.root:
             skip = {os.path.normpath(a.path) for a in analyses}
