@@ -18,6 +18,7 @@
 
 from __future__ import annotations
 
+import bisect
 import re
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
@@ -127,9 +128,11 @@ def _item_groups(
     sharing a line (in either text) are one group, since lines are what regions cut."""
     groups: list[tuple[int, int]] = []
     prev_old = prev_new = -1
+    old_starts = [c.span.start for c in old.comments]  # in text order, as lexed
+    new_starts = [c.span.start for c in new.comments]
     for a, b in zip(old.items, new.items, strict=True):
-        o_first, o_last = _lines(old_src, a, old.comments)
-        n_first, n_last = _lines(new_src, b, new.comments)
+        o_first, o_last = _lines(old_src, a, old.comments, old_starts)
+        n_first, n_last = _lines(new_src, b, new.comments, new_starts)
         if groups and (o_first <= prev_old or n_first <= prev_new):
             groups[-1] = (max(o_last, prev_old), max(n_last, prev_new))
         else:
@@ -138,13 +141,17 @@ def _item_groups(
     return groups
 
 
-def _lines(src: SourceFile, node: ast.Node, comments: tuple[ast.Comment, ...]) -> tuple[int, int]:
+def _lines(
+    src: SourceFile, node: ast.Node, comments: tuple[ast.Comment, ...], starts: list[int]
+) -> tuple[int, int]:
     """The 0-based first and last line of an item, down to the end of a block comment that
     starts on its lines (a region must never cut a comment in two)."""
     first, last = _line(src, node.span.start), _line(src, node.span.end)
-    for c in comments:
-        if first <= _line(src, c.span.start) <= last:
-            last = max(last, _line(src, c.span.end))
+    line_end = src.line_start(last + 2) if last + 1 < src.line_count else len(src.text)
+    i = bisect.bisect_left(starts, node.span.start)
+    while i < len(comments) and starts[i] < line_end:
+        last = max(last, _line(src, comments[i].span.end))
+        i += 1
     return first, last
 
 
