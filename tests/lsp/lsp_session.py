@@ -64,10 +64,12 @@ class Session:
         until: Callable[[Sequence[types.Diagnostic]], bool] = lambda d: True,
         version: int | None = None,
         timeout: float = TIMEOUT,
+        closed: bool = False,
     ) -> Sequence[types.Diagnostic]:
         """The diagnostics of `uri` once a publication for `version` (default: the
-        document's current one) satisfies `until`."""
-        want = self.versions.get(uri) if version is None else version
+        document's current one; `closed`: the one without a version that closing sends)
+        satisfies `until`."""
+        want = None if closed else self.versions.get(uri) if version is None else version
         loop = asyncio.get_running_loop()
         deadline = loop.time() + timeout
         while True:

@@ -168,6 +168,10 @@ class Backend:
     _thread: threading.Thread | None = None
     _closed: bool = False
     _next_id: int = 0
+    _stopped: set[int] = field(default_factory=set)
+    """Ids of jobs nobody waits for any more (a cancelled request)."""
+    _closed_uris: set[str] = field(default_factory=set)
+    """Documents closed since their last job was submitted."""
 
     def submit(self, job: Job) -> Job:
         """Queue `job`, replacing the waiting or running job with its key."""
@@ -177,6 +181,7 @@ class Backend:
                 job.key, job.version, job.path, job.text, job.settings, job.out, self._next_id
             )
             self._pending[job.key] = job
+            self._closed_uris.discard(job.key[0])
             if self._thread is None:
                 self._thread = threading.Thread(target=self._run, name="knitc-backend", daemon=True)
                 self._thread.start()
@@ -188,6 +193,15 @@ class Backend:
         with self._cond:
             for key in [k for k in self._pending if k[0] == uri]:
                 del self._pending[key]
+            self._closed_uris.add(uri)
+            self._cond.notify_all()
+
+    def stop(self, job: Job) -> None:
+        """Stop `job` if it is waiting or running (its request was cancelled)."""
+        with self._cond:
+            if self._pending.get(job.key) == job:
+                del self._pending[job.key]
+            self._stopped.add(job.id)
             self._cond.notify_all()
 
     def close(self) -> None:
@@ -236,7 +250,12 @@ class Backend:
                 self._stop_worker()
                 return Outcome(job, "failed", detail=f"the worker process ended (exit {code})")
             with self._cond:
-                superseded = job.key in self._pending or self._closed
+                superseded = (
+                    job.key in self._pending
+                    or self._closed
+                    or job.id in self._stopped
+                    or job.key[0] in self._closed_uris
+                )
             if superseded and stopped_at is None:
                 cancel.value = job.id
                 stopped_at = time.monotonic()

@@ -74,6 +74,10 @@ class KnitServer(LanguageServer):
         """Per document: the version and the diagnostics of its last back-end compile."""
         self._timers: dict[str, asyncio.TimerHandle] = {}
         self._refreshing: dict[str, asyncio.Task[None]] = {}
+        self._inflight: dict[
+            str, tuple[tuple[int | None, st.Settings], asyncio.Future[Analysis]]
+        ] = {}
+        """Per document: the analysis running now, and the (version, settings) it is of."""
         self._previews: dict[int, asyncio.Future[Outcome]] = {}
         self._preview_dir: str | None = None
         self.front_delay = FRONT_DELAY
@@ -104,7 +108,11 @@ class KnitServer(LanguageServer):
         if doc is None:
             return None
         current = self.analyses.get(uri)
-        if current is not None and current.version == doc.version:
+        if (
+            current is not None
+            and current.version == doc.version
+            and current.settings == self.settings
+        ):
             return current
         return await self._analyse(uri)
 
@@ -114,22 +122,37 @@ class KnitServer(LanguageServer):
 
     # -- the front end
     async def _analyse(self, uri: str) -> Analysis | None:
+        """Analyse the document's current text, or wait for the analysis of it already
+        running (a refresh and a request arriving together share one)."""
         doc = self.workspace.text_documents.get(uri)
         if doc is None:
             return None
-        version, text = doc.version, doc.source
+        key = (doc.version, self.settings)
+        running = self._inflight.get(uri)
+        if running is None or running[0] != key:
+            task = asyncio.ensure_future(self._analyse_text(uri, doc.version, doc.source))
+            running = self._inflight[uri] = (key, task)
+        # shield: a cancelled request must not cancel the analysis others wait for
+        return await asyncio.shield(running[1])
+
+    async def _analyse_text(self, uri: str, version: int | None, text: str) -> Analysis:
         previous = self.analyses.get(uri)
+        settings = self.settings
+        path = uri_to_path(uri)
         try:
             a: Analysis = await self.run_compiler(
-                analyse, uri, version, uri_to_path(uri), text, self.settings, previous
+                analyse, uri, version, path, text, settings, previous
             )
         except Exception:  # a bug in knitc: say so in the document, keep serving
-            a = _failed(uri, version, uri_to_path(uri), text, self.settings, previous)
+            a = _failed(uri, version, path, text, settings, previous)
         stored = self.analyses.get(uri)
         if uri in self.workspace.text_documents and (
             stored is None or stored.version is None or (a.version or 0) >= stored.version
         ):
             self.analyses[uri] = a
+        running = self._inflight.get(uri)
+        if running is not None and running[0] == (version, settings):
+            del self._inflight[uri]
         return a
 
     def schedule(self, uri: str, delay: float | None = None) -> None:
@@ -232,7 +255,12 @@ class KnitServer(LanguageServer):
         job = self.backend.submit(Job((uri, "preview"), a.version, a.path, a.text, a.settings, out))
         fut: asyncio.Future[Outcome] = asyncio.get_running_loop().create_future()
         self._previews[job.id] = fut
-        outcome = await fut
+        try:
+            outcome = await fut
+        except asyncio.CancelledError:  # the editor cancelled the request: stop the job
+            self._previews.pop(job.id, None)
+            self.backend.stop(job)
+            raise
         if outcome.status != "done" or not outcome.detail:
             return None
         from pygls import uris
@@ -346,6 +374,13 @@ def create_server() -> KnitServer:
     @server.feature(types.SHUTDOWN)
     def shutdown(ls: KnitServer, params: Any) -> None:
         ls.backend.close()
+        # pygls 2.1 cancels the requests still running after this handler while iterating
+        # over the dict their cancellation removes them from (a RuntimeError that fails the
+        # shutdown): cancel them here, over a copy, so that it finds them all done.
+        current = ls.protocol.msg_id
+        for msg_id, future in list(ls.protocol._request_futures.items()):
+            if msg_id != current and not future.done():
+                future.cancel()
 
     @server.command(PREVIEW)
     async def preview(ls: KnitServer, uri: str) -> dict[str, str] | None:
