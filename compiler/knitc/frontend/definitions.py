@@ -7,6 +7,7 @@ from __future__ import annotations
 import difflib
 import os
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Any, cast
 
@@ -177,7 +178,12 @@ class _Loader:
 
     def load_file(self, key: str, text: str, display: str) -> ast.Module | None:
         if key not in self.cache:
-            self.cache[key] = parse_source(SourceFile(display, text), self.diags)
+            if key.startswith("std:"):
+                source, module = _stdlib_parsed(display, text)
+                self.diags.add_source(source)
+                self.cache[key] = module
+            else:
+                self.cache[key] = parse_source(SourceFile(display, text), self.diags)
         return self.cache[key]
 
     def import_into(self, imp: ast.Import, importer: str, defs: _Defs) -> None:
@@ -296,3 +302,18 @@ def _references(stmts) -> list[str]:
         for st in stmts
         if isinstance(st, ast.ApplyStmt | ast.UseStmt)
     ]
+
+
+@lru_cache(maxsize=32)
+def _stdlib_parsed(display: str, text: str) -> tuple[SourceFile, ast.Module]:
+    """A standard-library module's syntax tree, parsed once per process: every compile
+    imports the same few modules, and the language server compiles on every edit. (Its
+    text is part of the key, so an edited stdlib in an editable install is read anew.) The
+    stdlib parses without errors (tests/test_stdlib_patterns.py); if it ever did not, this
+    raises rather than hide them."""
+    diags = Diagnostics()
+    source = SourceFile(display, text)
+    module = parse_source(source, diags)
+    if module is None:
+        raise ValueError(f"the standard library does not parse:\n{diags.render()}")
+    return source, module

@@ -33,6 +33,15 @@ is linear in stitches, and past this it takes longer than an edit should wait. A
 design gets its shaping diagnostics from the back end, which a newer edit can stop."""
 
 
+WARM_UP = (
+    "import std.stitches\nimport std.actions\nimport std.motifs\nimport std.shapers\n"
+    "tube warm { length: 2 width: 2 }\n"
+)
+"""A design whose compilation builds the parser and parses the whole standard library, so
+that the first edit the designer makes is as quick as the next (the server and the
+back end's worker compile it when they start)."""
+
+
 @dataclass(frozen=True)
 class Analysis:
     uri: str

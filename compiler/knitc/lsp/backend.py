@@ -70,8 +70,9 @@ def _worker_main(conn: Connection, cancel: Any) -> None:
     os.dup2(devnull, 1)
     sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - lives as long as the process
     from knitc import driver
+    from knitc.lsp.analysis import WARM_UP
 
-    driver.compile_source("tube warm { length: 2 width: 2 }", "<warm>", until="machine")
+    driver.compile_source(WARM_UP, "<warm-up>", until="machine")
     last: tuple[Job, driver.Result] | None = None
     while True:
         try:
@@ -182,11 +183,19 @@ class Backend:
             )
             self._pending[job.key] = job
             self._closed_uris.discard(job.key[0])
-            if self._thread is None:
-                self._thread = threading.Thread(target=self._run, name="knitc-backend", daemon=True)
-                self._thread.start()
+            self._start()
             self._cond.notify_all()
         return job
+
+    def start(self) -> None:
+        """Start the worker now, so that it is warm by the first job."""
+        with self._cond:
+            self._start()
+
+    def _start(self) -> None:
+        if self._thread is None and not self._closed:
+            self._thread = threading.Thread(target=self._run, name="knitc-backend", daemon=True)
+            self._thread.start()
 
     def discard(self, uri: str) -> None:
         """Forget the waiting jobs of a closed document (a running one is stopped)."""
@@ -215,6 +224,7 @@ class Backend:
     def _run(self) -> None:
         ctx = multiprocessing.get_context("spawn")
         cancel = ctx.Value("q", 0, lock=False)
+        self._ensure_worker(ctx, cancel)
         running: Job | None = None
         while True:
             with self._cond:

@@ -34,7 +34,7 @@ from pygls.lsp.server import LanguageServer
 from knitc import __version__
 from knitc.diagnostics import Diagnostics
 from knitc.lsp import settings as st
-from knitc.lsp.analysis import Analysis, analyse
+from knitc.lsp.analysis import WARM_UP, Analysis, analyse
 from knitc.lsp.backend import Backend, Job, Outcome
 from knitc.lsp.convert import SOURCE, to_lsp
 from knitc.lsp.locations import uri_to_path
@@ -335,6 +335,12 @@ def create_server() -> KnitServer:
         if params.root_uri:
             ls.root = uris.to_fs_path(params.root_uri)
         ls.configure(params.initialization_options)
+
+    @server.feature(types.INITIALIZED)
+    async def initialized(ls: KnitServer, params: types.InitializedParams) -> None:
+        ls._event_loop = asyncio.get_running_loop()
+        ls.backend.start()
+        await ls.run_compiler(analyse, "warm-up:", None, "<warm-up>", WARM_UP, st.Settings(), None)
 
     @server.feature(types.WORKSPACE_DID_CHANGE_CONFIGURATION)
     def did_change_configuration(
