@@ -2,7 +2,7 @@
 the Knitout -> DAT converter on a 100k-operation program and of `knitc view` on the 100k
 tube; and the machine time of every example and port: carriage passes (knitc's count, and
 the independent machine's when its venv is there), transfer passes, yarns, and DAT rows by
-kind, beside the original system's rows.
+kind, beside the original system's rows; and the language server's latency (bench/lsp.py).
 
 Each case runs in a fresh Python process (so peak RSS is its own), compiling to Knitout
 (or, where the back end does not support a design yet, as far as it goes). Results go to
@@ -214,10 +214,12 @@ def main() -> int:
     view = run_case(tmp / "tube-100k.knit", VIEW_CHILD)
     view["case"] = "view-100k"
     print(f"view: {view}", file=sys.stderr)
+    lsp = run_lsp()
+    print(f"lsp: {lsp}", file=sys.stderr)
     doc = {"machine": {"python": platform.python_version(), "cpu": platform.processor() or
                        platform.machine()},
            "date": time.strftime("%Y-%m-%d"), "results": results, "k2dat": k2dat,
-           "view": view}
+           "view": view, "lsp": lsp}
     (REPO / "bench" / "results.json").write_text(json.dumps(doc, indent=1) + "\n")
     print("| case | stitches | stage reached | knitc seconds | peak MB |")
     print("|---|---:|---|---:|---:|")
@@ -259,7 +261,27 @@ def main() -> int:
               f"{view['bed_seconds']} | {view['bed_compact_seconds']} | {view['chart_seconds']} | "
               f"{view['shape_seconds']} | {view['shape_3d_seconds']} | "
               f"{view['layout_seconds']}; {view['layout_3d_seconds']} | {view['peak_mb']} |")
+    print()
+    print("| knitc lsp | glove: edit to diagnostics | hover | completion "
+          "| sweater: edit to back-end diagnostics |")
+    print("|---|---:|---:|---:|---:|")
+    if "error" in lsp:
+        print(f"| latency | error: {lsp['error']} | | | |")
+    else:
+        print("| median (max) ms | " + " | ".join(
+            f"{lsp[k]['median_ms']} ({lsp[k]['max_ms']})"
+            for k in ("glove_edit_to_diagnostics", "glove_hover", "glove_completion",
+                      "sweater_edit_to_back_end_diagnostics")) + " |")
     return 0
+
+
+def run_lsp() -> dict:
+    """The language server's latency (bench/lsp.py), in its own process."""
+    out = subprocess.run([sys.executable, str(REPO / "bench" / "lsp.py")], capture_output=True,
+                         text=True, check=False)
+    if out.returncode != 0:
+        return {"error": out.stderr.strip().splitlines()[-1] if out.stderr else "failed"}
+    return json.loads(out.stdout)
 
 
 if __name__ == "__main__":

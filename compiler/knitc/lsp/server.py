@@ -45,7 +45,7 @@ log = logging.getLogger("knitc.lsp")
 
 FRONT_DELAY = 0.02
 """Seconds an edit waits for the next keystroke before the front end runs."""
-BACK_DELAY = 0.2
+BACK_DELAY = 0.1
 """Seconds after the front end's diagnostics before the back end starts."""
 
 FEATURES = (
