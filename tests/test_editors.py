@@ -15,7 +15,6 @@ which `make test` runs); without them they skip, except under CI, where they fai
 from __future__ import annotations
 
 import json
-import os
 import re
 import shutil
 import subprocess
@@ -23,25 +22,17 @@ from pathlib import Path
 
 import pytest
 
+from ci_tools import need
+
 REPO = Path(__file__).resolve().parents[1]
 EXT = REPO / "editors" / "vscode"
 TMTEST = EXT / "node_modules" / ".bin" / "vscode-tmgrammar-test"
 GRAMMAR = "syntaxes/knit.tmLanguage.json"
 
 
-def _in_ci() -> bool:
-    return os.environ.get("CI", "").strip().lower() not in ("", "0", "false", "no")
-
-
 def _need(ok: bool, reason: str) -> None:
     __tracebackhide__ = True
-    if ok:
-        return
-    if _in_ci():
-        pytest.fail(
-            reason + " -- CI must run the editor grammar tests, so this fails", pytrace=False
-        )
-    pytest.skip(reason)
+    need(ok, reason, "the editor grammar tests")
 
 
 @pytest.fixture(scope="module")

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ci_tools import need
 from knitc.codegen.machine import estimate_passes
 from knitc.shaping.stitch_graph import INSTRUCTIONS
 from knitc.source import SourceFile
@@ -232,17 +233,9 @@ CHROMEDRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
 WIDTH, HEIGHT = 1280, 860
 
 
-def _in_ci() -> bool:
-    return os.environ.get("CI", "").strip().lower() not in ("", "0", "false", "no")
-
-
 def _need(ok: bool, reason: str) -> None:
     __tracebackhide__ = True
-    if ok:
-        return
-    if _in_ci():
-        pytest.fail(reason + " -- CI must run the browser test, so this fails", pytrace=False)
-    pytest.skip(reason)
+    need(ok, reason, "the browser test")
 
 
 @pytest.fixture(scope="module")
