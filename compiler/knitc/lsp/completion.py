@@ -24,7 +24,6 @@ import os
 import re
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
-from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
 from lark import Token
@@ -36,9 +35,9 @@ from knitc.frontend import parser as ps
 from knitc.frontend import skeleton as sk
 from knitc.frontend.names import QUERY_FUNCTIONS, QUERY_WORDS
 from knitc.lsp.analysis import Analysis
+from knitc.lsp.definitions import signature, stdlib_exports, stdlib_modules
 from knitc.lsp.positions import UTF16
 from knitc.shaping.stitch_graph import INSTRUCTIONS
-from knitc.source import SourceFile
 from knitc.view.figure import INSTR_NAMES
 
 if TYPE_CHECKING:
@@ -275,85 +274,6 @@ def _glued(text: str, i: int) -> bool:
 
 
 # ---- the design's names ------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Export:
-    """A pattern, action or shaper of a standard-library module."""
-
-    kind: str
-    name: str
-    signature: str
-    doc: str
-    module: str
-
-
-def stdlib_modules() -> list[str]:
-    """The names of the standard library's modules (`stitches`, `motifs`, …)."""
-    try:
-        from knitc.resources import stdlib_root
-
-        std = stdlib_root().joinpath("std")
-        return sorted(
-            e.name[: -len(".knit")]
-            for e in std.iterdir()
-            if e.name.endswith(".knit") and e.is_file()
-        )
-    except OSError:
-        return []
-
-
-@lru_cache(maxsize=32)
-def stdlib_exports(module: str) -> tuple[Export, ...]:
-    """What `import std.<module>` brings, parsed once (on the compiler thread)."""
-    from knitc.diagnostics import Diagnostics
-    from knitc.resources import stdlib_module
-
-    try:
-        text = stdlib_module(f"std.{module}").read_text(encoding="utf-8")
-    except (OSError, ValueError, FileNotFoundError):
-        return ()
-    parsed = ps.parse_source(SourceFile(f"<stdlib>/std/{module}.knit", text), Diagnostics())
-    if parsed is None:
-        return ()
-    out = []
-    for item in parsed.items:
-        kind = _def_kind(item)
-        if kind is not None and isinstance(item, (ast.PatternDef, ast.ActionDef, ast.ShaperDef)):
-            doc = _comment_above(text, item.span.start)
-            out.append(Export(kind, item.name.name, signature(item), doc, module))
-    return tuple(out)
-
-
-def _def_kind(item: ast.Node) -> str | None:
-    return {ast.PatternDef: "pattern", ast.ActionDef: "action", ast.ShaperDef: "shaper"}.get(
-        type(item)
-    )
-
-
-def signature(d: ast.Node) -> str:
-    """`rib(k = 1, p = 1)`, `zigzag(M, N)` or `purl_flat`: how a definition is called."""
-    name = d.name.name  # type: ignore[attr-defined]
-    params = getattr(d, "params", None)
-    if params is None:
-        return str(name)
-    parts = [
-        p.name.name if p.default is None else f"{p.name.name} = {fmt.format_expr(p.default)}"
-        for p in params
-    ]
-    return f"{name}({', '.join(parts)})"
-
-
-def _comment_above(text: str, start: int) -> str:
-    """The `//` lines just above a definition: its documentation in the stdlib."""
-    lines = text[:start].rstrip("\n").split("\n")
-    doc: list[str] = []
-    for line in reversed(lines):
-        stripped = line.strip()
-        if not stripped.startswith("//"):
-            break
-        doc.append(stripped[2:].strip())
-    return "\n".join(reversed(doc))
 
 
 @dataclass

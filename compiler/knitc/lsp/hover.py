@@ -34,6 +34,7 @@ from knitc.frontend.fmt import format_expr
 from knitc.frontend.names import QUERY_FUNCTIONS
 from knitc.lang.evaluate import Profile, Word, show
 from knitc.lsp.analysis import Analysis
+from knitc.lsp.definitions import doc_comment, signature
 from knitc.lsp.index import Ref, Symbol
 from knitc.lsp.locations import STDLIB, source_of
 from knitc.shaping.stitch_graph import INSTRUCTIONS, StitchGraph
@@ -733,14 +734,14 @@ def _definition(a: Analysis, name: str, kind: str) -> _Def | None:
 
 
 def _signature(defn: _Def) -> str:
-    if isinstance(defn, ast.ActionDef):
-        return f"action {defn.name.name}"
-    keyword = "pattern" if isinstance(defn, ast.PatternDef) else "shaper"
-    params = ", ".join(
-        p.name.name if p.default is None else f"{p.name.name} = {_expr_text(p.default)}"
-        for p in defn.params
+    word = (
+        "action"
+        if isinstance(defn, ast.ActionDef)
+        else "pattern"
+        if isinstance(defn, ast.PatternDef)
+        else "shaper"
     )
-    return f"{keyword} {defn.name.name}({params})"
+    return f"{word} {signature(defn)}"
 
 
 def _file_text(a: Analysis, path: str) -> SourceFile | None:
@@ -754,15 +755,7 @@ def _doc_comment(a: Analysis, span: Span) -> str:
     source = _file_text(a, span.file)
     if source is None or not 1 <= span.line <= source.line_count:
         return ""
-    lines: list[str] = []
-    line = span.line - 1
-    while line >= 1:
-        text = source.line_text(line).strip()
-        if not text.startswith("//"):
-            break
-        lines.append(text[2:].removeprefix(" "))
-        line -= 1
-    return "\n".join(reversed(lines)).strip()
+    return doc_comment(source, span.line)
 
 
 def _where(a: Analysis, span: Span) -> str:

@@ -19,7 +19,6 @@ from __future__ import annotations
 import difflib
 import re
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import Any
 
 from lsprotocol import types
@@ -27,6 +26,7 @@ from lsprotocol import types
 from knitc.frontend import ast
 from knitc.lsp.analysis import Analysis
 from knitc.lsp.convert import SOURCE
+from knitc.lsp.definitions import stdlib_providers
 from knitc.lsp.server import KnitServer
 
 _DID_YOU_MEAN = re.compile(r"did you mean `([^`]+)`\?")
@@ -94,30 +94,6 @@ def _closest_word(text: str, start: int, end: int, want: str) -> tuple[int, int]
 
 
 # ---- imports from the standard library ---------------------------------------------------------
-
-
-@lru_cache(maxsize=1)
-def stdlib_exports() -> dict[str, tuple[tuple[str, str], ...]]:
-    """Each definition of the standard library: name -> ((module, kind), …), from each
-    `std/*.knit` parsed once. Compiler thread only (the first time)."""
-    from knitc.diagnostics import Diagnostics
-    from knitc.frontend.parser import parse_source
-    from knitc.resources import stdlib_root
-    from knitc.source import SourceFile
-
-    kinds = {ast.PatternDef: "pattern", ast.ActionDef: "action", ast.ShaperDef: "shaper"}
-    out: dict[str, list[tuple[str, str]]] = {}
-    std = stdlib_root().joinpath("std")
-    for entry in sorted(std.iterdir(), key=lambda p: p.name):
-        if not entry.name.endswith(".knit"):
-            continue
-        dotted = f"std.{entry.name[:-5]}"
-        text = entry.read_text(encoding="utf-8")
-        module = parse_source(SourceFile(f"<stdlib>/std/{entry.name}", text), Diagnostics())
-        for item in module.items if module is not None else ():
-            if isinstance(item, ast.PatternDef | ast.ActionDef | ast.ShaperDef):
-                out.setdefault(item.name.name, []).append((dotted, kinds[type(item)]))
-    return {k: tuple(v) for k, v in out.items()}
 
 
 def import_fixes(
@@ -327,7 +303,7 @@ def register(server: KnitServer) -> None:
         if only and not any(str(k).startswith(types.CodeActionKind.QuickFix) for k in only):
             return []
         try:
-            exports = await ls.run_compiler(stdlib_exports)
+            exports = await ls.run_compiler(stdlib_providers)
             return code_actions(a, list(params.context.diagnostics), exports, ls.encoding)
         except Exception:  # a bug here must never fail the editor's request
             return []

@@ -33,6 +33,7 @@ from knitc.frontend.names import BUILTIN_ACTIONS
 from knitc.frontend.parser import parse_source
 from knitc.lsp import index as ix
 from knitc.lsp.analysis import Analysis
+from knitc.lsp.definitions import params_text
 from knitc.lsp.locations import STDLIB, location, path_to_uri, source_of
 from knitc.lsp.positions import UTF16, Locator
 from knitc.source import SourceFile, Span
@@ -554,10 +555,7 @@ def _action(o: _Outline, d: ast.ActionDef) -> types.DocumentSymbol:
 
 
 def _signature(kind: str, params: tuple[ast.ParamDef, ...]) -> str:
-    shown = [
-        p.name.name if p.default is None else f"{p.name.name} = {_expr(p.default)}" for p in params
-    ]
-    return f"{kind}({', '.join(shown)})"
+    return f"{kind}({params_text(params)})"
 
 
 def _connect(o: _Outline, c: ast.Connect) -> types.DocumentSymbol:
