@@ -125,26 +125,15 @@ def _compile(job: Job, cancel: Any, last: tuple[Job, Any] | None) -> Any:
 def _preview(job: Job, result: Any) -> str:
     """Write the viewer's page for a compiled design; the path, or "" when it did not get
     that far."""
-    from knitc.codegen.simulate import simulate
     from knitc.view import html
-    from knitc.view.source import ViewInput
+    from knitc.view.source import from_result
 
-    if not result.ok or result.program is None or job.out is None:
+    view = from_result(result)
+    if view is None or job.out is None:
         return ""
-    data = html.render(
-        ViewInput(
-            job.path,
-            result.program,
-            simulate(result.program),
-            graph=result.graph,
-            schedule=result.schedule,
-            result=result,
-            diagnostics=result.diagnostics,
-        )
-    )
     tmp = job.out + ".tmp"
     with open(tmp, "wb") as f:
-        f.write(data)
+        f.write(html.render(view))
     os.replace(tmp, job.out)
     return job.out
 

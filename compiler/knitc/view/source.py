@@ -59,19 +59,24 @@ def load(
     from knitc.driver import compile_file
 
     result = compile_file(path, defines=list(defines), until="machine", include=list(include))
+    return Loaded(result.diagnostics, from_result(result))
+
+
+def from_result(result: Result) -> ViewInput | None:
+    """What the views draw of a design compiled through the machine stage (None when it
+    did not get there): its program simulated, with the stitch graph and schedule."""
+    from knitc.codegen.simulate import simulate
+
     if not result.ok or result.program is None:
-        return Loaded(result.diagnostics, None)
-    return Loaded(
-        result.diagnostics,
-        ViewInput(
-            path,
-            result.program,
-            simulate(result.program),
-            graph=result.graph,
-            schedule=result.schedule,
-            result=result,
-            diagnostics=result.diagnostics,
-        ),
+        return None
+    return ViewInput(
+        result.path,
+        result.program,
+        simulate(result.program),
+        graph=result.graph,
+        schedule=result.schedule,
+        result=result,
+        diagnostics=result.diagnostics,
     )
 
 
