@@ -5,7 +5,8 @@ design generator (designs.py) and the runner (`make fuzz`, run.py). This file ru
 target on every saved input of its kind, so a bug a fuzzer once found stays fixed: the
 hostile inputs of tests/fuzz/regressions/ (huge numbers, inf and nan, deep nesting,
 blow-ups, hostile paths, mutated Knitout and DAT found by `make fuzz`) and the corpus. The
-parser target also runs on every design of the project (its formatter round trip is a
+`editor` target (the language server's features at many offsets) runs on the designs the
+compiler's do. The parser target also runs on every design of the project (its formatter round trip is a
 differential check), and the `design` target on a fixed set of generated designs.
 """
 
@@ -21,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).parent / "fuzz"))
 
 import targets  # noqa: E402
 
-SAVED = [(t, p) for t in ("compile", "knitout", "dat") for p in targets.inputs(t)]
+SAVED = [(t, p) for t in ("compile", "editor", "knitout", "dat") for p in targets.inputs(t)]
 
 
 @pytest.mark.parametrize(("target", "path"), SAVED, ids=[f"{t}:{p.name}" for t, p in SAVED])

@@ -46,8 +46,9 @@ def main() -> None:
 
     # Comparison tracing (libFuzzer's data-flow feedback) leaks in atheris 3.0 when the
     # compared values are numpy arrays: a compiling target's process grew by ~0.7 MB per
-    # input until the RSS limit stopped it. The two compiling targets use branch coverage only.
-    dataflow = target not in ("compile", "design")
+    # input until the RSS limit stopped it. The targets that shape (compile, design, and the
+    # language server's editor) use branch coverage only.
+    dataflow = target not in ("compile", "design", "editor")
     with HookManager({"knitc"}, set(), True, trace_dataflow=dataflow):
         import targets
 

@@ -37,7 +37,7 @@ sys.path[:0] = [str(HERE), str(HERE.parent)]
 
 import targets  # noqa: E402
 
-ALL = ("parse", "compile", "design", "knitout", "dat")
+ALL = ("parse", "compile", "design", "editor", "knitout", "dat")
 
 
 def _reproduce(target: str, files: list[str]) -> int:

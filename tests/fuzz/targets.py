@@ -184,9 +184,20 @@ def dat(data: bytes) -> None:
             raise Bug(f"dat2k wrote Knitout that `knitc lint` rejects\n{lint_err}")
 
 
+def editor(data: bytes) -> None:
+    """The language server's features on any text, at many offsets (editor.py)."""
+    import editor as lsp_target
+
+    try:
+        lsp_target.editor(data)
+    except lsp_target.Bug as bug:
+        raise Bug(str(bug)) from None
+
+
 TARGETS: dict[str, Callable[[bytes], None]] = {
     "parse": parse,
     "compile": compile_bytes,
+    "editor": editor,
     "knitout": knitout,
     "dat": dat,
 }
@@ -200,6 +211,7 @@ REGRESSIONS = HERE / "regressions"
 CORPUS_OF = {
     "parse": "knit",
     "compile": "knit",
+    "editor": "knit",
     "design": "design",
     "knitout": "knitout",
     "dat": "dat",

@@ -83,7 +83,6 @@ class Answer:
 
 # ---- the cursor's context ----------------------------------------------------------------------
 
-_WORD_BEFORE = re.compile(r"[A-Za-z0-9_]*\Z")
 _IDENT = re.compile(r"[A-Za-z_]\w*")
 
 
@@ -116,8 +115,11 @@ class Context:
 
 def _word_start(text: str, offset: int) -> tuple[int, str]:
     """Where the word ending at `offset` begins and its sigil (`#`, `@` or none)."""
-    m = _WORD_BEFORE.search(text, 0, offset)
-    start = m.start() if m else offset
+    start = offset
+    while start > 0 and (
+        text[start - 1].isascii() and (text[start - 1].isalnum() or text[start - 1] == "_")
+    ):
+        start -= 1  # a backward scan: a regex search for the word before is quadratic in it
     if start > 0 and text[start - 1] in "#@":
         return start - 1, text[start - 1]
     return start, ""
