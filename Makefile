@@ -92,7 +92,9 @@ explore: venv oracle-venv
 coverage: venv oracle-venv
 	@rm -rf build
 	$(PIP) install -q -e ".[test]"
-	$(BIN)/python -m coverage run --source=compiler/knitc -m pytest -p no:cacheprovider
+	@rm -f .coverage .coverage.*
+	$(BIN)/python -m coverage run -m pytest -p no:cacheprovider
+	$(BIN)/python -m coverage combine -q
 	$(BIN)/python -m coverage report --skip-covered --fail-under=95
 
 # Fuzzing (tests/fuzz/run.py): each target under libFuzzer with fresh seeds, a crash, hang or
