@@ -4,6 +4,7 @@ break and repair a file; positions on lines with text outside ASCII."""
 
 from __future__ import annotations
 
+import asyncio
 from pathlib import Path
 
 from lsp_session import Session
@@ -116,3 +117,15 @@ async def test_closing_a_document_clears_its_diagnostics(session: Session):
         types.DidCloseTextDocumentParams(types.TextDocumentIdentifier(uri))
     )
     await session.diagnostics(uri, lambda d: len(d) == 0, closed=True)
+
+
+async def test_a_fixed_warning_does_not_linger(session: Session):
+    # W708 is the front end's; after the back end has run, deleting its cause must clear it
+    # at once (only the back end's own findings are kept while it runs again).
+    text = (ROOT / "examples/tube.knit").read_text()
+    uri = session.open("tube.knit", text)
+    await session.diagnostics(uri, lambda d: "W708" in codes(d))
+    await asyncio.sleep(1.5)  # the back end of version 1 has published
+    session.replace_all(uri, text.replace("  apply tuck_stitch() where courses(0.45:0.55)\n", ""))
+    first = await session.diagnostics(uri)
+    assert "W708" not in codes(first)

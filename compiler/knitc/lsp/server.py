@@ -71,7 +71,8 @@ class KnitServer(LanguageServer):
         self.compiler = ThreadPoolExecutor(max_workers=1, thread_name_prefix="knitc-front")
         self.backend = Backend(self._backend_done)
         self.back_diagnostics: dict[str, tuple[int | None, list[types.Diagnostic]]] = {}
-        """Per document: the version and the diagnostics of its last back-end compile."""
+        """Per document: the version of its last back-end compile and the diagnostics only
+        the back end found (shown again, until the next one, after edits elsewhere)."""
         self._timers: dict[str, asyncio.TimerHandle] = {}
         self._refreshing: dict[str, asyncio.Task[None]] = {}
         self._inflight: dict[
@@ -238,7 +239,13 @@ class KnitServer(LanguageServer):
                     f"diagnostics in {outcome.seconds:.2f} s",
                 )
             )
-        self.back_diagnostics[uri] = (job.version, all_diags)
+        a = self.analyses.get(uri)
+        front = (
+            {_key(d) for d in to_lsp(a.diagnostics, a.source, self.encoding)}
+            if a is not None and a.version == job.version
+            else set()
+        )
+        self.back_diagnostics[uri] = (job.version, [d for d in all_diags if _key(d) not in front])
         self.text_document_publish_diagnostics(
             types.PublishDiagnosticsParams(uri=uri, diagnostics=all_diags, version=job.version)
         )
@@ -274,6 +281,11 @@ class KnitServer(LanguageServer):
             self.window_show_message(
                 types.ShowMessageParams(types.MessageType.Warning, f"knitc: {problem}")
             )
+
+
+def _key(d: types.Diagnostic) -> tuple[object, ...]:
+    r = d.range
+    return (d.code, d.message, r.start.line, r.start.character, r.end.line, r.end.character)
 
 
 def _still_valid(
