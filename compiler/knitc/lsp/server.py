@@ -239,13 +239,16 @@ class KnitServer(LanguageServer):
                     f"diagnostics in {outcome.seconds:.2f} s",
                 )
             )
-        a = self.analyses.get(uri)
-        front = (
-            {_key(d) for d in to_lsp(a.diagnostics, a.source, self.encoding)}
-            if a is not None and a.version == job.version
+        now = self.analyses.get(uri)
+        found_by_front: set[tuple[object, ...]] = (
+            {_key(d) for d in to_lsp(now.diagnostics, now.source, self.encoding)}
+            if now is not None and now.version == job.version
             else set()
         )
-        self.back_diagnostics[uri] = (job.version, [d for d in all_diags if _key(d) not in front])
+        self.back_diagnostics[uri] = (
+            job.version,
+            [d for d in all_diags if _key(d) not in found_by_front],
+        )
         self.text_document_publish_diagnostics(
             types.PublishDiagnosticsParams(uri=uri, diagnostics=all_diags, version=job.version)
         )
