@@ -68,6 +68,8 @@ class Result:
     `access.ReadRoots`)."""
     max_stitches: int = sk.MAX_STITCHES
     """The stitch budget (E512, `--max-stitches`)."""
+    machine_problems: list[str] | None = None
+    """`machine.verify` of `program`, once (see `_generate`)."""
     timings: list[tuple[str, float]] = field(default_factory=list)
     """(stage, seconds) for every stage run, in order (`knitc --time-passes`)."""
 
@@ -182,13 +184,24 @@ def _generate(r: Result) -> bool:
     )
     if program is None:
         return False
-    _verify("machine", mp.verify(program))
+    r.program = program
+    # Every op is validated once: here, before the simulation (which then trusts them), and
+    # the stage table's verifier reads the same list (`_machine_problems`).
+    r.machine_problems = mp.verify(program)
+    _verify("machine", r.machine_problems)
     if not r.diagnostics.has_errors:
         # After a designer's error (an action that could not run, E72x) the program lacks
         # that stitch's steps, and simulating it would blame knitc for the gap (E809).
-        add_to_diagnostics(simulate(program), program, r.diagnostics)
-    r.program = program
+        add_to_diagnostics(simulate(program, verified=True), program, r.diagnostics)
     return True
+
+
+def _machine_problems(r: Result) -> list[str]:
+    """The machine program's broken invariants: those `_generate` found, when it ran (a
+    program set by other means is verified here)."""
+    if r.machine_problems is None:
+        r.machine_problems = mp.verify(_the(r.program))
+    return r.machine_problems
 
 
 def _knitout(r: Result) -> bool:
@@ -282,7 +295,7 @@ STAGES: tuple[Stage, ...] = (
     Stage(
         "machine",
         _generate,
-        lambda r: mp.verify(_the(r.program)),
+        _machine_problems,
         lambda r: mp.to_json(_the(r.program)),
         "machine operations, each with its stitch and source line (simulated)",
     ),

@@ -168,8 +168,10 @@ class Simulator:
         check_end: bool = True,
         limit_per_kind: int = 100,
         placed: bool = False,
+        verified: bool = False,
     ) -> None:
         self.prog = prog
+        self.verified = verified
         self.machine = prog.machine
         self.bed_lo = 0  # the needle number at the bed's left end
         if placed and prog.position != "Keep":
@@ -284,7 +286,7 @@ class Simulator:
         passive = ("comment", "stitch", "stitch_number", "speed", "presser")
         for i, op in enumerate(self.prog.ops):
             self._i = i
-            problems = op_problems(op, self.machine, carrier_limit=False)
+            problems = () if self.verified else op_problems(op, self.machine, carrier_limit=False)
             if problems:
                 self._report("malformed", f"`{op.kind}` op: " + "; ".join(problems))
                 continue
@@ -886,6 +888,7 @@ def simulate(
     check_end: bool = True,
     limit_per_kind: int = 100,
     placed: bool = False,
+    verified: bool = False,
 ) -> list[Finding]:
     """Run `prog` on knitc's machine model; findings in program order (end-state ones last).
 
@@ -897,6 +900,8 @@ def simulate(
     limit_per_kind: report at most this many findings of one kind (then one summary).
     placed: needle numbers as the program's `;;Position:` places them (`Simulator`), for a
       Knitout file read from another tool.
+    verified: every op already passed `machine.verify` (the driver checks them just before),
+      so the per-op check is not repeated: each op of a compile is validated once.
     """
     return Simulator(
         prog,
@@ -905,6 +910,7 @@ def simulate(
         check_end=check_end,
         limit_per_kind=limit_per_kind,
         placed=placed,
+        verified=verified,
     ).run()
 
 
