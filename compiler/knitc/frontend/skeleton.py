@@ -14,14 +14,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, cast
-
-import networkx as nx
+from typing import TYPE_CHECKING, Any, cast
 
 from knitc.diagnostics import Diagnostics, Note
 from knitc.frontend import ast
 from knitc.lang.evaluate import Profile, Value, round_half_up
 from knitc.source import Span
+
+if TYPE_CHECKING:
+    import networkx as nx
 
 # ---- property schemas -------------------------------------------------------------------------
 
@@ -246,7 +247,10 @@ class Skeleton:
     """Nodes that already have errors; size checks skip them so errors don't cascade."""
 
     def graph(self) -> nx.MultiGraph:
-        """Nodes and interfaces as one graph: node–interface edges and connection edges."""
+        """Nodes and interfaces as one graph: node–interface edges and connection edges
+        (for tools; networkx is imported only here, it costs a third of start-up)."""
+        import networkx as nx
+
         g = nx.MultiGraph()
         for name in self.nodes:
             g.add_node(name, kind="node")
@@ -258,13 +262,29 @@ class Skeleton:
         return g
 
     def components(self) -> list[list[str]]:
-        """Node names of each connected garment, in declaration order."""
+        """Node names of each connected garment, in declaration order (a walk over the
+        connections: every compile needs it, and importing a graph library for it would
+        cost more than the rest of a small design's compile)."""
+        linked: dict[str, set[str]] = {n: set() for n in self.nodes}
+        for c in self.connections:
+            if c.a.node in linked and c.b.node in linked:
+                linked[c.a.node].add(c.b.node)
+                linked[c.b.node].add(c.a.node)
         order = {n: i for i, n in enumerate(self.nodes)}
-        comps = [
-            sorted((n for n in c if n in order), key=order.__getitem__)
-            for c in nx.connected_components(self.graph())
-        ]
-        return sorted(comps, key=lambda c: order[c[0]])
+        seen: set[str] = set()
+        comps = []
+        for start in self.nodes:
+            if start in seen:
+                continue
+            seen.add(start)
+            comp, todo = [], [start]
+            while todo:
+                n = todo.pop()
+                comp.append(n)
+                todo.extend(m for m in linked[n] if m not in seen)
+                seen.update(linked[n])
+            comps.append(sorted(comp, key=order.__getitem__))
+        return comps
 
 
 # ---- sizes and sides ------------------------------------------------------------------------
