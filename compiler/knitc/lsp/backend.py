@@ -70,7 +70,10 @@ def _worker_main(conn: Connection, cancel: Any) -> None:
     os.dup2(devnull, 1)
     sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - lives as long as the process
     from knitc import driver
+    from knitc.cli import tune_gc
     from knitc.lsp.analysis import WARM_UP
+
+    tune_gc()
 
     driver.compile_source(WARM_UP, "<warm-up>", until="machine")
     last: tuple[Job, driver.Result] | None = None
