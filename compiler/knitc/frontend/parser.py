@@ -17,9 +17,7 @@ Two details make it pleasant to write in:
 
 from __future__ import annotations
 
-import os
 import re
-import stat
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -146,26 +144,6 @@ def _text(lexer_state) -> str:
 _comment_sink: list[list[Token]] = []
 
 
-def _cache_file() -> str | None:
-    """Where the LALR tables are kept between runs (building them is a third of a small
-    design's compile): a file in the user's own cache folder (`$XDG_CACHE_HOME/knitc`, else
-    `~/.cache/knitc`), which Lark checks against a hash of the grammar, its options and
-    Lark's version before using it. The tables are a pickle, so only a folder that is the
-    user's alone (mode 0700, owned by them) is used; None (build every time) when there
-    is none, or when `KNITC_NO_CACHE` is set."""
-    if os.environ.get("KNITC_NO_CACHE"):
-        return None
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    folder = os.path.join(base, "knitc")
-    try:
-        os.makedirs(folder, mode=0o700, exist_ok=True)
-        st = os.stat(folder, follow_symlinks=False)
-    except OSError:
-        return None
-    mine = stat.S_ISDIR(st.st_mode) and st.st_uid == os.getuid() and not st.st_mode & 0o077
-    return os.path.join(folder, "knit-lalr.cache") if mine else None
-
-
 def _on_comment(tok: Token) -> Token:
     if _comment_sink:
         _comment_sink[-1].append(tok)
@@ -181,7 +159,6 @@ def _lark() -> Lark:
         propagate_positions=True,
         maybe_placeholders=True,
         lexer_callbacks={"COMMENT": _on_comment},
-        cache=_cache_file() or False,
     )
     parser.parser.lexer = _ContextualKeywords(parser.parser.lexer)
     return parser
