@@ -939,19 +939,13 @@ def register(server: KnitServer) -> None:
     async def completion(
         ls: KnitServer, params: types.CompletionParams
     ) -> types.CompletionList | None:
-        try:
-            a = await ls.analysis_for(params.text_document.uri)
-            if a is None:
-                return None
-            encoding = ls.encoding
-            offset = a.locator(encoding).offset(params.position)
-            ans = await ls.run_compiler(
-                answer, a, offset, _snippet_support(ls), _trigger(params.context)
-            )
-            return to_lsp(ans, a, encoding)
-        except Exception:  # never fail a request: the editor would show an error
-            log.exception("completion failed")
+        a = await ls.analysis_for(params.text_document.uri)
+        if a is None:
             return None
+        encoding = ls.encoding
+        offset = a.locator(encoding).offset(params.position)
+        ans = await ls.run_safely(answer, a, offset, _snippet_support(ls), _trigger(params.context))
+        return to_lsp(ans, a, encoding) if ans is not None else None
 
 
 def _trigger(context: types.CompletionContext | None) -> str | None:

@@ -465,6 +465,11 @@ def _pieces(
             yield ln - 1, at, units(text[start_col:stop], encoding), tok
 
 
+def document_tokens(a: Analysis) -> list[Semantic]:
+    """The classified tokens of the document's text. Compiler thread only (it lexes)."""
+    return semantic_tokens(a, lex(a.text))
+
+
 def in_range(tokens: list[Semantic], start: int, end: int) -> list[Semantic]:
     return [t for t in tokens if t.end > start and t.start < end]
 
@@ -617,11 +622,8 @@ def register(server: KnitServer) -> None:
         a = await ls.analysis_for(params.text_document.uri)
         if a is None:
             return None
-        try:
-            edits = await ls.run_compiler(format_edits, a.text, a.path)
-        except Exception:  # a formatter bug must not take the request down
-            return []
-        return to_text_edits(a, edits, ls.encoding)
+        edits = await ls.run_safely(format_edits, a.text, a.path)
+        return to_text_edits(a, edits or [], ls.encoding)
 
     @server.feature(types.TEXT_DOCUMENT_RANGE_FORMATTING)
     async def range_formatting(
@@ -633,21 +635,15 @@ def register(server: KnitServer) -> None:
         first, last = params.range.start.line, params.range.end.line
         if last > first and params.range.end.character == 0:
             last -= 1  # a selection of whole lines ends at the next line's start
-        try:
-            edits = await ls.run_compiler(range_format_edits, a.text, first, last, a.path)
-        except Exception:
-            return []
-        return to_text_edits(a, edits, ls.encoding)
+        edits = await ls.run_safely(range_format_edits, a.text, first, last, a.path)
+        return to_text_edits(a, edits or [], ls.encoding)
 
     async def tokens_of(ls: KnitServer, uri: str) -> tuple[Analysis, list[Semantic]] | None:
         a = await ls.analysis_for(uri)
         if a is None:
             return None
-        try:
-            toks = await ls.run_compiler(lex, a.text)
-            return a, semantic_tokens(a, toks)
-        except Exception:
-            return a, []
+        toks = await ls.run_safely(document_tokens, a)
+        return a, toks or []
 
     @server.feature(types.TEXT_DOCUMENT_SEMANTIC_TOKENS_FULL, LEGEND)
     async def tokens_full(
@@ -677,7 +673,4 @@ def register(server: KnitServer) -> None:
         a = await ls.analysis_for(params.text_document.uri)
         if a is None:
             return None
-        try:
-            return folding_ranges(a)
-        except Exception:
-            return []
+        return await ls.run_safely(folding_ranges, a) or []

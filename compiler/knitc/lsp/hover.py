@@ -804,17 +804,13 @@ def register(server: KnitServer) -> None:
 
     @server.feature(types.TEXT_DOCUMENT_HOVER)
     async def hover(ls: KnitServer, params: types.HoverParams) -> types.Hover | None:
-        try:
-            a = await ls.analysis_for(params.text_document.uri)
-            if a is None:
-                return None
-            loc = a.locator(ls.encoding)
-            info = await ls.run_compiler(
-                hover_at, a, loc.offset(params.position), ls.settings.define_map()
-            )
-        except Exception:  # a hover must never fail the editor's request
-            _log_failure("hover")
+        a = await ls.analysis_for(params.text_document.uri)
+        if a is None:
             return None
+        loc = a.locator(ls.encoding)
+        info = await ls.run_safely(
+            hover_at, a, loc.offset(params.position), ls.settings.define_map()
+        )
         if info is None:
             return None
         return types.Hover(
@@ -824,16 +820,12 @@ def register(server: KnitServer) -> None:
 
     @server.feature(types.TEXT_DOCUMENT_INLAY_HINT, types.InlayHintOptions(resolve_provider=False))
     async def inlay_hint(ls: KnitServer, params: types.InlayHintParams) -> list[types.InlayHint]:
-        try:
-            a = await ls.analysis_for(params.text_document.uri)
-            if a is None:
-                return []
-            loc = a.locator(ls.encoding)
-            start, end = loc.offset(params.range.start), loc.offset(params.range.end)
-            hints: list[Hint] = await ls.run_compiler(inlay_hints, a, start, end)
-        except Exception:
-            _log_failure("inlay hints")
+        a = await ls.analysis_for(params.text_document.uri)
+        if a is None:
             return []
+        loc = a.locator(ls.encoding)
+        start, end = loc.offset(params.range.start), loc.offset(params.range.end)
+        hints: list[Hint] = await ls.run_safely(inlay_hints, a, start, end) or []
         return [
             types.InlayHint(
                 position=loc.position(h.offset),
@@ -843,9 +835,3 @@ def register(server: KnitServer) -> None:
             )
             for h in hints
         ]
-
-
-def _log_failure(what: str) -> None:
-    import logging
-
-    logging.getLogger("knitc.lsp").exception("%s failed", what)

@@ -302,8 +302,10 @@ def register(server: KnitServer) -> None:
         only = params.context.only
         if only and not any(str(k).startswith(types.CodeActionKind.QuickFix) for k in only):
             return []
-        try:
-            exports = await ls.run_compiler(stdlib_providers)
-            return code_actions(a, list(params.context.diagnostics), exports, ls.encoding)
-        except Exception:  # a bug here must never fail the editor's request
-            return []
+        exports = await ls.run_safely(stdlib_providers) or {}
+        return (
+            await ls.run_safely(
+                code_actions, a, list(params.context.diagnostics), exports, ls.encoding
+            )
+            or []
+        )

@@ -121,6 +121,16 @@ class KnitServer(LanguageServer):
         """Run `fn(*args)` on the compiler thread (anything that parses or compiles)."""
         return await asyncio.get_running_loop().run_in_executor(self.compiler, fn, *args)
 
+    async def run_safely(self, fn: Any, *args: Any) -> Any:
+        """`run_compiler(fn, *args)`, or None (logged with its traceback) when it fails: a
+        feature never answers an odd position or a half-written file with an error, and a
+        bug in one shows in the server's log, not as a broken request."""
+        try:
+            return await self.run_compiler(fn, *args)
+        except Exception:
+            log.exception("%s failed", getattr(fn, "__name__", fn))
+            return None
+
     # -- the front end
     async def _analyse(self, uri: str) -> Analysis | None:
         """Analyse the document's current text, or wait for the analysis of it already

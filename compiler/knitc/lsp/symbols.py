@@ -722,7 +722,7 @@ def register(server: KnitServer) -> None:
         if a is None:
             return None
         offset = a.locator(ls.encoding).offset(params.position)
-        return await _safely(ls, definition, a, offset, ls.encoding) or None
+        return await ls.run_safely(definition, a, offset, ls.encoding) or None
 
     @server.feature(types.TEXT_DOCUMENT_REFERENCES)
     async def find_references(
@@ -733,7 +733,7 @@ def register(server: KnitServer) -> None:
             return None
         offset = a.locator(ls.encoding).offset(params.position)
         include = params.context.include_declaration
-        return await _safely(ls, references, a, offset, include, ls.encoding)
+        return await ls.run_safely(references, a, offset, include, ls.encoding)
 
     @server.feature(types.TEXT_DOCUMENT_PREPARE_RENAME)
     async def prepare(ls: KnitServer, params: types.PrepareRenameParams) -> types.Range | None:
@@ -775,7 +775,7 @@ def register(server: KnitServer) -> None:
         a = await ls.analysis_for(params.text_document.uri)
         if a is None:
             return None
-        return await _safely(ls, document_symbols, a, ls.encoding)
+        return await ls.run_safely(document_symbols, a, ls.encoding)
 
     @server.feature(types.WORKSPACE_SYMBOL)
     async def find_symbols(
@@ -786,7 +786,7 @@ def register(server: KnitServer) -> None:
         files = open_files(analyses)
         if ls.root:
             skip = {os.path.normpath(a.path) for a in analyses}
-            files += await _safely(ls, workspace_files, ls.root, skip) or []
+            files += await ls.run_safely(workspace_files, ls.root, skip) or []
         return workspace_symbols(params.query, files, ls.encoding)
 
 
@@ -798,13 +798,3 @@ def _open_texts(ls: KnitServer) -> dict[str, str]:
         os.path.normpath(uri_to_path(uri)): doc.source
         for uri, doc in ls.workspace.text_documents.items()
     }
-
-
-async def _safely(ls: KnitServer, fn: Callable[..., Any], *args: Any) -> Any:
-    """`fn(*args)` on the compiler thread; None (logged) if it fails: a navigation request
-    never answers with an error for an odd position or a half-written file."""
-    try:
-        return await ls.run_compiler(fn, *args)
-    except Exception:
-        log.exception("%s failed", getattr(fn, "__name__", fn))
-        return None
