@@ -29,12 +29,14 @@ class Run:
     stderr: str
 
 
-def run(argv: Sequence[str | Path], *, cwd: Path | None = None,
-        env: dict[str, str] | None = None) -> Run:
+def run(
+    argv: Sequence[str | Path], *, cwd: Path | None = None, env: dict[str, str] | None = None
+) -> Run:
     """Run `argv` to its end and return what the kernel counted for it."""
     t0 = time.perf_counter()
-    proc = subprocess.Popen([str(a) for a in argv], cwd=cwd, env=env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [str(a) for a in argv], cwd=cwd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+    )
     # wait4 reaps the child itself: its rusage is the child's alone (RUSAGE_CHILDREN would
     # mix in every earlier child and give only the largest peak so far).
     assert proc.stderr is not None
@@ -43,14 +45,24 @@ def run(argv: Sequence[str | Path], *, cwd: Path | None = None,
     proc.returncode = os.waitstatus_to_exitcode(status)
     proc.stderr.close()
     wall = time.perf_counter() - t0
-    return Run(cpu_seconds=usage.ru_utime + usage.ru_stime, wall_seconds=wall,
-               peak_mb=usage.ru_maxrss / 1024, returncode=proc.returncode,
-               stderr=err.decode("utf-8", "replace"))
+    return Run(
+        cpu_seconds=usage.ru_utime + usage.ru_stime,
+        wall_seconds=wall,
+        peak_mb=usage.ru_maxrss / 1024,
+        returncode=proc.returncode,
+        stderr=err.decode("utf-8", "replace"),
+    )
 
 
-def paired(ours: Sequence[str | Path], theirs: Sequence[str | Path], *, runs: int = 5,
-           cwd: Path | None = None, env_ours: dict[str, str] | None = None,
-           env_theirs: dict[str, str] | None = None) -> dict:
+def paired(
+    ours: Sequence[str | Path],
+    theirs: Sequence[str | Path],
+    *,
+    runs: int = 5,
+    cwd: Path | None = None,
+    env_ours: dict[str, str] | None = None,
+    env_theirs: dict[str, str] | None = None,
+) -> dict:
     """Run both commands `runs` times, alternating, and report medians and the ratio
     theirs / ours (above 1: knitc is that many times faster). A failing run of either side
     stops the pairing and is reported with its last line of stderr."""
@@ -67,16 +79,23 @@ def paired(ours: Sequence[str | Path], theirs: Sequence[str | Path], *, runs: in
             into.append(r)
     ours_cpu = statistics.median(r.cpu_seconds for r in mine)
     theirs_cpu = statistics.median(r.cpu_seconds for r in peer)
-    return {"runs": runs,
-            "knitc_cpu_seconds": round(ours_cpu, 3),
-            "peer_cpu_seconds": round(theirs_cpu, 3),
-            "ratio": round(theirs_cpu / ours_cpu, 2) if ours_cpu > 0 else None,
-            "knitc_peak_mb": round(max(r.peak_mb for r in mine), 1),
-            "peer_peak_mb": round(max(r.peak_mb for r in peer), 1)}
+    return {
+        "runs": runs,
+        "knitc_cpu_seconds": round(ours_cpu, 3),
+        "peer_cpu_seconds": round(theirs_cpu, 3),
+        "ratio": round(theirs_cpu / ours_cpu, 2) if ours_cpu > 0 else None,
+        "knitc_peak_mb": round(max(r.peak_mb for r in mine), 1),
+        "peer_peak_mb": round(max(r.peak_mb for r in peer), 1),
+    }
 
 
-def single(argv: Sequence[str | Path], *, runs: int = 3, cwd: Path | None = None,
-           env: dict[str, str] | None = None) -> dict:
+def single(
+    argv: Sequence[str | Path],
+    *,
+    runs: int = 3,
+    cwd: Path | None = None,
+    env: dict[str, str] | None = None,
+) -> dict:
     """The median CPU seconds and the peak RSS of `runs` runs of one command."""
     got: list[Run] = []
     for _ in range(runs):
@@ -85,8 +104,11 @@ def single(argv: Sequence[str | Path], *, runs: int = 3, cwd: Path | None = None
             tail = r.stderr.strip().splitlines()[-1:] or ["failed"]
             return {"error": f"exited {r.returncode}: {tail[0]}"}
         got.append(r)
-    return {"runs": runs, "cpu_seconds": round(statistics.median(r.cpu_seconds for r in got), 3),
-            "peak_mb": round(max(r.peak_mb for r in got), 1)}
+    return {
+        "runs": runs,
+        "cpu_seconds": round(statistics.median(r.cpu_seconds for r in got), 3),
+        "peak_mb": round(max(r.peak_mb for r in got), 1),
+    }
 
 
 def environ(**extra: str) -> dict[str, str]:

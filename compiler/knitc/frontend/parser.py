@@ -27,7 +27,7 @@ from lark.lexer import Lexer
 from lark.parsers.lalr_analysis import Shift
 
 from knitc.diagnostics import Diagnostics
-from knitc.frontend import ast
+from knitc.frontend import ast, tables
 from knitc.lang import arith
 from knitc.resources import grammar_text
 from knitc.source import SourceFile, Span
@@ -152,14 +152,9 @@ def _on_comment(tok: Token) -> Token:
 
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
-    parser = Lark(
-        grammar_text(),
-        parser="lalr",
-        lexer="contextual",
-        propagate_positions=True,
-        maybe_placeholders=True,
-        lexer_callbacks={"COMMENT": _on_comment},
-    )
+    options = {"parser": "lalr", "lexer": "contextual", "propagate_positions": True,
+               "maybe_placeholders": True}
+    parser = tables.load_lark(grammar_text(), options, {"COMMENT": _on_comment})
     parser.parser.lexer = _ContextualKeywords(parser.parser.lexer)
     return parser
 

@@ -1,0 +1,116 @@
+"""The parser's LALR tables kept as JSON between runs (knitc/frontend/tables.py): a parser
+loaded from the file parses exactly as a freshly built one, the file is used only in a
+folder that is the user's alone, and a broken or foreign file costs only a rebuild."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import lark
+import pytest
+
+from knitc.frontend import parser, tables
+from knitc.resources import grammar_text
+
+REPO = Path(__file__).resolve().parent.parent
+OPTIONS = {
+    "parser": "lalr",
+    "lexer": "contextual",
+    "propagate_positions": True,
+    "maybe_placeholders": True,
+}
+SOURCES = sorted(REPO.glob("examples/**/*.knit")) + sorted(REPO.glob("stdlib/**/*.knit"))
+
+
+@pytest.fixture
+def cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.delenv("KNITC_NO_CACHE", raising=False)
+    return tmp_path / "knitc"
+
+
+def _trees(p: lark.Lark) -> list[lark.Tree]:
+    p.parser.lexer = parser._ContextualKeywords(p.parser.lexer)
+    return [p.parse(path.read_text(encoding="utf-8")) for path in SOURCES]
+
+
+def _forbid_build(monkeypatch: pytest.MonkeyPatch) -> None:
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the tables were built, not read")
+
+    monkeypatch.setattr(tables, "Lark", type("NoBuild", (lark.Lark,), {"__init__": refuse}))
+
+
+def test_loaded_tables_parse_as_built_ones(cache: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    built = tables.load_lark(grammar_text(), OPTIONS, {})
+    (path,) = cache.glob("knit-lalr-*.json")
+    assert oct(cache.stat().st_mode & 0o777) == "0o700"
+    _forbid_build(monkeypatch)
+    loaded = tables.load_lark(grammar_text(), OPTIONS, {})
+    assert _trees(loaded) == _trees(built)
+    assert json.loads(path.read_text())["data"]  # plain JSON, nothing else
+
+
+def test_comment_callbacks_are_given_not_stored(cache: Path) -> None:
+    seen: list[str] = []
+    tables.load_lark(grammar_text(), OPTIONS, {})
+    loaded = tables.load_lark(grammar_text(), OPTIONS, {"COMMENT": lambda t: seen.append(t)})
+    loaded.parse("// a note\nsheet s { length: 4, width: 4 }\n")
+    assert seen == ["// a note"]
+
+
+@pytest.mark.parametrize("damage", ["", "{", '{"data": 1}', "[]"])
+def test_a_broken_file_is_rebuilt(cache: Path, damage: str) -> None:
+    tables.load_lark(grammar_text(), OPTIONS, {})
+    (path,) = cache.glob("knit-lalr-*.json")
+    path.write_text(damage)
+    again = tables.load_lark(grammar_text(), OPTIONS, {})
+    assert again.parse("sheet s { length: 4, width: 4 }\n")
+    assert json.loads(path.read_text())["memo"]  # written again, whole
+
+
+def test_the_file_name_follows_the_grammar_and_lark(
+    cache: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    one = tables.table_file(grammar_text(), OPTIONS)
+    assert one != tables.table_file(grammar_text() + "\n// changed\n", OPTIONS)
+    assert one != tables.table_file(grammar_text(), {**OPTIONS, "maybe_placeholders": False})
+    monkeypatch.setattr(lark, "__version__", "0.0.0")
+    assert one != tables.table_file(grammar_text(), OPTIONS)
+
+
+def test_a_shared_folder_is_not_used(cache: Path) -> None:
+    cache.mkdir(mode=0o755)
+    os.chmod(cache, 0o755)
+    assert tables.table_file(grammar_text(), OPTIONS) is None
+    tables.load_lark(grammar_text(), OPTIONS, {})
+    assert not list(cache.iterdir())
+
+
+def test_no_cache_setting(cache: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("KNITC_NO_CACHE", "1")
+    assert tables.table_file(grammar_text(), OPTIONS) is None
+    tables.load_lark(grammar_text(), OPTIONS, {})
+    assert not cache.exists()
+
+
+def test_an_unwritable_folder_costs_only_speed(
+    cache: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def full(*args: object, **kwargs: object) -> None:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(tables.tempfile, "mkstemp", full)
+    got = tables.load_lark(grammar_text(), OPTIONS, {})
+    assert got.parse("sheet s { length: 4, width: 4 }\n")
+    assert not list(cache.iterdir())
+
+
+def test_the_encoding_round_trips_lark_data() -> None:
+    data = {0: ("shift", 3), "rules": [{"empty_indices": (True, False)}], "n": None}
+    text = json.dumps(tables._encode(data))
+    assert json.loads(text, object_hook=tables._decode) == data
+    with pytest.raises(TypeError):
+        tables._encode({"f": print})
