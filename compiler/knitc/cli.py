@@ -15,7 +15,10 @@ import sys
 import tempfile
 import traceback
 
-from knitc import __version__
+from knitc import (
+    __version__,
+    _process,  # noqa: F401  (first: it sets up the process before numpy loads)
+)
 from knitc.diagnostics import Diagnostics
 from knitc.driver import (
     EMITTABLE,

@@ -152,8 +152,12 @@ def _on_comment(tok: Token) -> Token:
 
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
-    options = {"parser": "lalr", "lexer": "contextual", "propagate_positions": True,
-               "maybe_placeholders": True}
+    options = {
+        "parser": "lalr",
+        "lexer": "contextual",
+        "propagate_positions": True,
+        "maybe_placeholders": True,
+    }
     parser = tables.load_lark(grammar_text(), options, {"COMMENT": _on_comment})
     parser.parser.lexer = _ContextualKeywords(parser.parser.lexer)
     return parser
