@@ -20,9 +20,17 @@ BEDS = ("f", "b")
 SLIDERS = ("fs", "bs")
 
 
+_NEEDLES: dict[Pos, Needle] = {}
+"""One `Needle` per bed position, made at its first use: a program names the same few
+hundred needles over and over, and a shared instance is found in dicts by identity."""
+
+
 def needle(pos: Pos) -> Needle:
     """The machine needle of a bed position."""
-    return Needle(pos[0], pos[1])
+    n = _NEEDLES.get(pos)
+    if n is None:
+        n = _NEEDLES[pos] = Needle(pos[0], pos[1])
+    return n
 
 
 class Unsupported(Exception):
@@ -43,9 +51,13 @@ class Bed:
     rack: int = 0
     carrier_at: dict[int, float] = field(default_factory=dict)
     """Where each carrier in use was left (needle position, between needles)."""
+    _span_of: list | None = None
 
     def span(self, s: int):
-        return self.g.spans[int(self.g.span[s])] if s >= 0 else None
+        if self._span_of is None:  # every stitch's span, looked up once per op otherwise
+            spans = self.g.spans
+            self._span_of = [spans[i] for i in self.g.span.tolist()]
+        return self._span_of[s] if s >= 0 else None
 
     def set_rack(self, r: int) -> None:
         if r != self.rack:

@@ -157,6 +157,8 @@ class _Gen:
     knit_bed: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int8))
     knit_needle: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
     """Where the schedule knits each stitch (`schedule.knit_positions`)."""
+    positions: list[Pos] = field(default_factory=list)
+    """The same as (bed name, needle) pairs (`pos`)."""
 
     action_state: object = None
     """What `patterning.actions` computes once per program (its own business)."""
@@ -171,13 +173,19 @@ class _Gen:
 
     def __post_init__(self) -> None:
         self.knit_bed, self.knit_needle = sc.knit_positions(self.sched, self.g.n_stitches)
+        # (bed, needle) of every stitch as Python values, made once: `pos` is asked about
+        # six times per stitch, and indexing numpy arrays one scalar at a time is slow
+        self.positions = [
+            (BEDS[b], n)
+            for b, n in zip(self.knit_bed.tolist(), self.knit_needle.tolist(), strict=True)
+        ]
         self.dirs = sc.carriage_directions(self.sched, self.t.stitch, self.t.yarn)
         g = self.g
         self.carrying = np.zeros(g.n_courses, bool)
         self.carrying[g.course[np.isin(g.instr, CARRIED)]] = True
 
     def pos(self, s: int) -> Pos:
-        return BEDS[int(self.knit_bed[s])], int(self.knit_needle[s])
+        return self.positions[s]
 
     def ctx(self, carrier: int, s: int) -> cast.Ctx:
         return cast.Ctx(self.bed, carrier, self.opts.numbers, self.bed.span(int(s)))

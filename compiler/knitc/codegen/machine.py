@@ -35,7 +35,7 @@ from collections import Counter
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 from knitc.source import Span
 
@@ -45,12 +45,15 @@ BEDS = ("f", "b", "fs", "bs")
 """Front hooks, back hooks, front sliders, back sliders."""
 
 
-@dataclass(frozen=True, slots=True, order=True)
-class Needle:
-    """One needle: a bed ('f', 'b', 'fs', 'bs') and an index. `str()` gives ``f12``."""
+class Needle(NamedTuple):
+    """One needle: a bed ('f', 'b', 'fs', 'bs') and an index. `str()` gives ``f12``.
+
+    A named tuple, not a dataclass: a compile hashes and compares needles millions of times
+    (the loop model and the simulator key their dicts by them), and a tuple does both in C.
+    Needles order by bed, then index."""
 
     bed: str
-    index: int
+    index: int  # type: ignore[assignment]  # (shadows tuple.index, which no caller uses)
 
     def __str__(self) -> str:
         return f"{self.bed}{self.index}"
@@ -97,7 +100,7 @@ NeedleLike = Needle | str
 
 
 def as_needle(n: NeedleLike) -> Needle:
-    return n if isinstance(n, Needle) else Needle.parse(n)
+    return n if type(n) is Needle or isinstance(n, Needle) else Needle.parse(n)
 
 
 def racking_for(a: NeedleLike, b: NeedleLike) -> int:
@@ -311,6 +314,8 @@ CarriersLike = int | Iterable[int]
 
 
 def as_carriers(cs: CarriersLike) -> tuple[int, ...]:
+    if type(cs) is tuple and len(cs) == 1 and type(cs[0]) is int:
+        return cs  # the common case: one carrier, already as it should be
     if isinstance(cs, bool):
         raise TypeError("a boolean is not a carrier")
     if isinstance(cs, int):
@@ -664,6 +669,33 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
 
 
+_PLAIN_KINDS = frozenset({"knit", "tuck", "miss"})
+_PHASES = frozenset(CODE_PASSES)
+_BED_NAMES = frozenset(BEDS)
+
+
+def _plain_ok(op: Op, machine: Machine, carrier_limit: bool) -> bool:
+    """The common case of `op_problems` at a glance: a knit, tuck or miss that is well
+    formed in every respect the full check looks at (most of a program's ops; a False
+    only sends the op through the full check, which then says what is wrong)."""
+    n, cs = op.needle, op.carriers
+    return (
+        type(n) is Needle
+        and n.bed in _BED_NAMES
+        and type(n.index) is int
+        and op.needle2 is None
+        and (op.dir == 1 or op.dir == -1)
+        and type(op.dir) is int
+        and op.value is None
+        and type(op.stitch) is int
+        and op.stitch >= -1
+        and op.phase in _PHASES
+        and len(cs) == 1
+        and type(cs[0]) is int
+        and 1 <= cs[0] <= machine.carriers
+    )
+
+
 def op_problems(op: Op, machine: Machine, *, carrier_limit: bool = True) -> list[str]:
     """What is structurally wrong with one op (empty = well formed). Machine limits other
     than the carrier names (needle range, racking limit, alignment, carrier state, loops) are
@@ -672,6 +704,8 @@ def op_problems(op: Op, machine: Machine, *, carrier_limit: bool = True) -> list
     a Knitout file from another tool may name three, so the simulator passes
     `carrier_limit=False` and reports them as a finding of their own."""
     k = op.kind
+    if k in _PLAIN_KINDS and _plain_ok(op, machine, carrier_limit):
+        return []
     if k not in KINDS:
         return [f"unknown kind {k!r}"]
     problems: list[str] = []
