@@ -20,16 +20,10 @@ from knitc import (
     _process,  # noqa: F401  (first: it sets up the process before numpy loads)
 )
 from knitc.diagnostics import Diagnostics
-from knitc.driver import (
-    EMITTABLE,
-    STAGES,
-    TARGETS,
-    compile_file,
-    emit_json,
-    emit_text,
-    timing_table,
-)
-from knitc.frontend.skeleton import MAX_STITCHES
+from knitc.limits import MAX_STITCHES
+
+# The driver (and through it the pipeline and numpy) is imported by the commands that
+# compile, not at the top: `knitc --version`, `fmt`, `k2dat` and `dat2k` do not need it.
 
 EXAMPLES = """\
 examples:
@@ -126,6 +120,8 @@ def _reading(p: argparse.ArgumentParser, stitches: bool = True) -> None:
 
 
 def _main_parser() -> argparse.ArgumentParser:
+    from knitc.driver import EMITTABLE, STAGES, TARGETS
+
     p = argparse.ArgumentParser(
         prog="knitc",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -398,6 +394,8 @@ def _output_ok(path: str | None, inputs: tuple[str, ...]) -> bool:
 
 
 def _cmd_compile(args: argparse.Namespace) -> int:
+    from knitc.driver import STAGES, compile_file, emit_json, emit_text, timing_table
+
     werror = "error" in args.warn
     to_stdout = not args.output or args.output == "-"
     target = args.target
@@ -462,7 +460,7 @@ def _cmd_compile(args: argparse.Namespace) -> int:
 def _dat_bytes(prog, diags: Diagnostics, quiet: bool) -> bytes | None:
     """The DAT file of a Knitout program (`k2dat`); None after reporting why the machine
     (or its DAT format) cannot take it, at the line the refused operation came from."""
-    from knitc.driver import Result, resume
+    from knitc.driver import STAGES, Result, resume
 
     result = Result(diags, program=prog, stage_reached=STAGES[-1].name)
     resume(result, "dat")
@@ -567,6 +565,8 @@ def _cmd_lint(args: argparse.Namespace) -> int:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
+    from knitc.driver import STAGES, compile_file, timing_table
+
     # `check` runs the whole pipeline but writes nothing: a design that checks clean
     # compiles clean, and code generation's findings (E602, W60x, W80x) are reported too.
     result = compile_file(
@@ -662,6 +662,9 @@ def main(argv: list[str] | None = None) -> int:
             ),
             None,
         )
+        if argv == ["--version"]:  # what argparse would print, without building the parser
+            sys.stdout.write(f"knitc {__version__}\n")  # (whose choices need the driver)
+            return 0
         if sub is not None:
             rest = argv[:sub] + argv[sub + 1 :]
             if argv[sub] == "lsp":

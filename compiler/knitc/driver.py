@@ -19,24 +19,35 @@ skeleton (the language server) can later ask for the machine program without par
 
 from __future__ import annotations
 
+import importlib
 import json
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from knitc.access import ReadRoots, reading_below
 from knitc.codegen import machine as mp
 from knitc.diagnostics import Diagnostics, Note
-from knitc.frontend import ast
-from knitc.frontend import skeleton as sk
-from knitc.scheduling import schedule as sc
-from knitc.scheduling import slices as sl
-from knitc.scheduling import trace as tr
-from knitc.shaping import stitch_graph as sg
+from knitc.limits import MAX_STITCHES
 from knitc.source import SourceFile, Span
 
+if TYPE_CHECKING:
+    from knitc.frontend import ast
+    from knitc.frontend import skeleton as sk
+    from knitc.scheduling import schedule as sc
+    from knitc.scheduling import slices as sl
+    from knitc.scheduling import trace as tr
+    from knitc.shaping import stitch_graph as sg
+
 T = TypeVar("T")
+
+
+def _lazy(name: str) -> Any:
+    """A stage's module, imported when the stage first runs or is dumped: `k2dat` and
+    `dat2k` start from a machine program and need none of the front end (nor its import
+    time)."""
+    return importlib.import_module(name)
 
 
 class InternalError(Exception):
@@ -66,7 +77,7 @@ class Result:
     include: tuple[str, ...] = ()
     """Folders besides the design's own that its imports and images may read (`--include`;
     `access.ReadRoots`)."""
-    max_stitches: int = sk.MAX_STITCHES
+    max_stitches: int = MAX_STITCHES
     """The stitch budget (E512, `--max-stitches`)."""
     machine_problems: list[str] | None = None
     """`machine.verify` of `program`, once (see `_generate`)."""
@@ -253,7 +264,7 @@ STAGES: tuple[Stage, ...] = (
         "ast",
         _parse,
         None,
-        lambda r: ast.to_json(_the(r.module)),
+        lambda r: _lazy("knitc.frontend.ast").to_json(_the(r.module)),
         "the syntax tree, every node with its source span",
         text=_ast_text,
     ),
@@ -261,35 +272,37 @@ STAGES: tuple[Stage, ...] = (
         "skeleton",
         _resolve,
         None,
-        lambda r: sk.to_json(_the(r.skeleton)),
+        lambda r: _lazy("knitc.frontend.skeleton").to_json(_the(r.skeleton)),
         "the primitives with resolved parameters, interfaces and connections",
     ),
     Stage(
         "stitch-graph",
         _stitch_graph,
-        lambda r: sg.verify(_the(r.graph)),
-        lambda r: sg.to_json(_the(r.graph)),
+        lambda r: _lazy("knitc.shaping.stitch_graph").verify(_the(r.graph)),
+        lambda r: _lazy("knitc.shaping.stitch_graph").to_json(_the(r.graph)),
         "stitches, courses and wales, with pattern instructions and actions",
     ),
     Stage(
         "trace",
         _trace,
-        lambda r: tr.verify(_the(r.graph), _the(r.trace)),
-        lambda r: tr.to_json(_the(r.graph), _the(r.trace)),
+        lambda r: _lazy("knitc.scheduling.trace").verify(_the(r.graph), _the(r.trace)),
+        lambda r: _lazy("knitc.scheduling.trace").to_json(_the(r.graph), _the(r.trace)),
         "the yarn path through every stitch",
     ),
     Stage(
         "slices",
         _slice,
-        lambda r: sl.verify(_the(r.graph), _the(r.trace), _the(r.slices)),
-        lambda r: sl.to_json(_the(r.graph), _the(r.slices)),
+        lambda r: _lazy("knitc.scheduling.slices").verify(
+            _the(r.graph), _the(r.trace), _the(r.slices)
+        ),
+        lambda r: _lazy("knitc.scheduling.slices").to_json(_the(r.graph), _the(r.slices)),
         "the trace cut into bed slices",
     ),
     Stage(
         "schedule",
         _schedule,
-        lambda r: sc.verify(_the(r.graph), _the(r.schedule)),
-        lambda r: sc.to_json(_the(r.graph), _the(r.schedule)),
+        lambda r: _lazy("knitc.scheduling.schedule").verify(_the(r.graph), _the(r.schedule)),
+        lambda r: _lazy("knitc.scheduling.schedule").to_json(_the(r.graph), _the(r.schedule)),
         "each slice's layout and needle offset",
     ),
     Stage(
@@ -376,7 +389,7 @@ def compile_source(
     werror: bool = False,
     on_stage: Callable[[str], None] | None = None,
     include: list[str] | tuple[str, ...] = (),
-    max_stitches: int = sk.MAX_STITCHES,
+    max_stitches: int = MAX_STITCHES,
 ) -> Result:
     """Run the pipeline on `text` up to and including stage `until` (`on_stage`: see
     `resume`). Imports and images may read below the folder of `path` and the `include`

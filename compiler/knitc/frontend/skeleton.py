@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any, cast
 from knitc.diagnostics import Diagnostics, Note
 from knitc.frontend import ast
 from knitc.lang.evaluate import Profile, Value, round_half_up
+from knitc.limits import MAX_STITCHES  # noqa: F401  (where the resolver and tools look)
 from knitc.source import Span
 
 if TYPE_CHECKING:
@@ -48,10 +49,6 @@ SHAPERS = ("uniform", "center", "left", "right", "sides", "none")
 ALIGNMENTS = ("center", "left", "right")
 CLOSINGS = ("collapse", "zigzag", "zigzagreturn")
 
-MAX_STITCHES = 2_000_000
-"""Most stitches a design may have (sheets and tubes at their widest): a million compile in
-under a minute and a gigabyte; beyond this a legal-looking design (`length: 100000`,
-`width: 5000`) would exhaust memory instead of being refused (E512)."""
 
 MACHINE_PROPS: dict[str, PropSpec] = {
     "model": PropSpec("string", "SWG091N2", doc="machine model, for the Knitout header"),
