@@ -33,6 +33,7 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
@@ -159,6 +160,8 @@ class _Gen:
     """Where the schedule knits each stitch (`schedule.knit_positions`)."""
     positions: list[Pos] = field(default_factory=list)
     """The same as (bed name, needle) pairs (`pos`)."""
+    forks: set[int] = field(default_factory=set)
+    """Stitches with two children: the parents of the increases (`_increases`)."""
 
     action_state: object = None
     """What `patterning.actions` computes once per program (its own business)."""
@@ -181,6 +184,7 @@ class _Gen:
         ]
         self.dirs = sc.carriage_directions(self.sched, self.t.stitch, self.t.yarn)
         g = self.g
+        self.forks = set(np.nonzero((g.wale_next >= 0).sum(axis=1) == 2)[0].tolist())
         self.carrying = np.zeros(g.n_courses, bool)
         self.carrying[g.course[np.isin(g.instr, CARRIED)]] = True
 
@@ -427,11 +431,12 @@ def _shaping(gen: _Gen, sub: np.ndarray) -> dict[int, int]:
     in_sub = set(int(s) for s in ids)
     primary: dict[int, int] = {}
     moves = []
-    for p in np.unique(g.wale_prev[ids]):
-        p = int(p)
-        if p < 0 or p not in bed.where:
+    parents = np.unique(g.wale_prev[ids])
+    parents = parents[parents >= 0]
+    for p, row in zip(parents.tolist(), g.wale_next[parents].tolist(), strict=True):
+        if p not in bed.where:
             continue
-        kids = [int(k) for k in g.wale_next[p] if int(k) in in_sub]
+        kids = [k for k in row if k in in_sub]
         if not kids:
             continue
         here = bed.where[p]
@@ -718,13 +723,25 @@ def _precast_cover(gen: _Gen, node: int) -> set[Pos]:
 
 def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int, int]) -> None:
     incs = _increases(gen, chunk, primary)
-    for s in gen.t.stitch[chunk].tolist():
+    g = gen.g
+    stitches = gen.t.stitch[chunk]
+    ids = stitches.tolist()
+    for s in ids:
         if s in gen.fetch:
             gen.fetch.discard(s)
             incs[s] = ("fetch",)
+    # what `_action` asks of every stitch, read from the arrays once per pass
+    half = (g.course_gauge[g.course[stitches]] == 2).tolist()
     acts = [
-        _action(gen, ctx, int(s), int(d) or 1, incs.get(int(s)))
-        for s, d in zip(gen.t.stitch[chunk], gen.dirs[chunk], strict=True)
+        _action(gen, ctx, s, d or 1, incs.get(s), h, a, i)
+        for s, d, h, a, i in zip(
+            ids,
+            gen.dirs[chunk].tolist(),
+            half,
+            g.action[stitches].tolist(),
+            g.instr[stitches].tolist(),
+            strict=True,
+        )
     ]
     parts = actions.prepare_pass(gen, acts)  # one, or per bed (`split_by_side`)
     if parts and parts[-1]:
@@ -735,57 +752,73 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
         gen.bed.set_rack(0)
 
 
-def _action(gen: _Gen, ctx: cast.Ctx, s: int, d: int, inc: tuple | None) -> Action:
-    """The built-in action of stitch `s` visited in direction `d`."""
-    bed, numbers = gen.bed, gen.opts.numbers
-    pos = gen.pos(s)
-    half = int(gen.g.course_gauge[int(gen.g.course[s])]) == 2
-    plain = numbers.knit_half_gauge if half else numbers.knit
+def _knit(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, plain: int) -> None:
+    """K: knit through the needle's loops, or, with nothing to knit through, lay a loop
+    onto the empty needle."""
+    if gen.bed.loops.get(pos, 0):
+        cast.emit(ctx, "knit", d, pos, s, plain)
+    else:
+        cast.emit(ctx, "tuck", d, pos, s, empty_needle_number(gen, s, plain))
 
-    def knit() -> None:
-        if bed.loops.get(pos, 0):
-            cast.emit(ctx, "knit", d, pos, s, plain)
-        else:  # nothing to knit through: a loop laid onto the empty needle
-            cast.emit(ctx, "tuck", d, pos, s, empty_needle_number(gen, s, plain))
 
-    def kickback() -> None:
-        if bed.loops.get(pos, 0):
-            knit()
-        else:  # the carrier passes the needle in the pass, then comes back to tuck it
-            cast.emit(ctx, "miss", d, pos, s)
-            cast.emit(ctx, "tuck", -d, pos, s, numbers.increase)
-
-    def missed() -> None:
+def _kickback(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, plain: int) -> None:
+    """A kickback increase: on an empty needle the carrier passes it in the pass, then
+    comes back to tuck it; on a held one, a plain knit."""
+    if gen.bed.loops.get(pos, 0):
+        _knit(gen, ctx, s, d, pos, plain)
+    else:
         cast.emit(ctx, "miss", d, pos, s)
+        cast.emit(ctx, "tuck", -d, pos, s, gen.opts.numbers.increase)
 
-    if inc is None and int(gen.g.action[s]) >= 0:
+
+def _action(
+    gen: _Gen,
+    ctx: cast.Ctx,
+    s: int,
+    d: int,
+    inc: tuple | None,
+    half: bool,
+    user_action: int,
+    instr_code: int,
+) -> Action:
+    """The built-in action of stitch `s` visited in direction `d` (`half`: its course is in
+    half gauge; `user_action`, `instr_code`: its `g.action` and `g.instr`). Each step is a
+    partial of a module function, made only for the branch taken: this runs per stitch."""
+    numbers = gen.opts.numbers
+    pos = gen.positions[s]
+    plain = numbers.knit_half_gauge if half else numbers.knit
+    if inc is None and user_action >= 0:
         user = actions.lower(gen, ctx, s, d, pos)
         if user is not None:
             return user
     if inc is None:
-        instr = INSTRUCTIONS[int(gen.g.instr[s])]
+        instr = INSTRUCTIONS[instr_code]
+        if instr == "K" or instr[0] in "FXS":  # the F moves, the crosses and S are knitted
+            # here and carried after the course
+            return Action(s, main=[partial(_knit, gen, ctx, s, d, pos, plain)])
         if instr == "P" or instr[0] == "B":  # reverse stitches; a B move is knitted reversed
             # and its loop waits on the facing needle for `_carry`, which takes it from there
-            return _purl(gen, ctx, s, d, pos, plain, keep=instr[0] == "B") or Action(s, main=[knit])
+            return _purl(gen, ctx, s, d, pos, plain, keep=instr[0] == "B") or Action(
+                s, main=[partial(_knit, gen, ctx, s, d, pos, plain)]
+            )
         if instr == "T":
-            return Action(s, main=[lambda: cast.emit(ctx, "tuck", d, pos, s, plain)])
+            return Action(s, main=[partial(cast.emit, ctx, "tuck", d, pos, s, plain)])
         if instr == "M":
-            return Action(s, main=[lambda: _miss(gen, ctx, s, d, pos)])
-        # K; the F moves, the crosses and S are knitted here and carried after the course
-        return Action(s, main=[knit])
+            return Action(s, main=[partial(_miss, gen, ctx, s, d, pos)])
+        return Action(s, main=[partial(_knit, gen, ctx, s, d, pos, plain)])
     if inc[0] == "kickback":
-        return Action(s, main=[kickback])
+        return Action(s, main=[partial(_kickback, gen, ctx, s, d, pos, plain)])
     if inc[0] == "laid":
-        return Action(s, main=[knit])
+        return Action(s, main=[partial(_knit, gen, ctx, s, d, pos, plain)])
     if inc[0] == "fetch":
-        return Action(s, main=[lambda: _fetch(gen, s), knit])
+        return Action(s, main=[partial(_fetch, gen, s), partial(_knit, gen, ctx, s, d, pos, plain)])
     if inc[0] == "miss":
-        return Action(s, main=[missed])
+        return Action(s, main=[partial(cast.emit, ctx, "miss", d, pos, s)])
     _, target, sibling = inc
     return Action(
         s,
-        main=[lambda: _split(gen, ctx, s, d, target, sibling)],
-        post=[lambda: _unsplit(gen, target, sibling)],
+        main=[partial(_split, gen, ctx, s, d, target, sibling)],
+        post=[partial(_unsplit, gen, target, sibling)],
     )
 
 
@@ -869,16 +902,20 @@ def _increases(gen: _Gen, chunk: np.ndarray, primary: dict[int, int]) -> dict[in
     not a closed one. A sibling in a later slice of the course is remembered in
     `gen.fetch`."""
     g, bed = gen.g, gen.bed
-    ids = [int(s) for s in gen.t.stitch[chunk]]
+    forks = [(p, c1) for p, c1 in primary.items() if p in gen.forks]
+    if not forks:  # no parent with two children: no increase in this course
+        return {}
+    stitches = gen.t.stitch[chunk]
+    ids = stitches.tolist()
     in_course = set(ids)
     busy = {gen.pos(s) for s in ids}
-    busy |= {gen.pos(int(k)) for s in ids for k in g.wale_next[s] if k >= 0}
+    busy |= {gen.pos(k) for row in g.wale_next[stitches].tolist() for k in row if k >= 0}
     visit = {s: i for i, s in enumerate(ids)}
     missed: set[int] = set()
     out: dict[int, tuple] = {}
     course = int(g.course[ids[0]])
-    for p, c1 in sorted(primary.items(), key=lambda pc: visit.get(pc[1], 0)):
-        kids = [int(k) for k in g.wale_next[p] if k >= 0]
+    for p, c1 in sorted(forks, key=lambda pc: visit.get(pc[1], 0)):
+        kids = [k for k in g.wale_next[p].tolist() if k >= 0]
         if len(kids) != 2:
             continue
         c2 = kids[0] if kids[1] == c1 else kids[1]
