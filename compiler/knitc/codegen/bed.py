@@ -78,20 +78,15 @@ class Bed:
 
     def stitch_op(self, kind: str, d: int, pos: Pos, stitch: int, carrier: int) -> None:
         """knit / tuck / miss at `pos`; `stitch` -1 = a loop of no graph stitch (cast-on)."""
-        at = needle(pos)
-        span = self.span(stitch)
+        if kind not in ("knit", "tuck", "miss"):
+            raise ValueError(kind)
+        self.prog.needle_op(kind, d, needle(pos), (carrier,), stitch, self.span(stitch))
         if kind == "knit":
-            self.prog.knit(d, at, (carrier,), stitch=stitch, span=span)
             for s in self.at.pop(pos, ()):
                 del self.where[s]
             self.loops[pos] = 1
         elif kind == "tuck":
-            self.prog.tuck(d, at, (carrier,), stitch=stitch, span=span)
             self.loops[pos] += 1
-        elif kind == "miss":
-            self.prog.miss(d, at, (carrier,), stitch=stitch, span=span)
-        else:
-            raise ValueError(kind)
         self.carrier_at[carrier] = pos[1] + 0.5 * d
         if stitch >= 0 and kind != "miss":
             self.place(stitch, pos)

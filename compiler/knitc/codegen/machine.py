@@ -238,9 +238,12 @@ def format_number(v: float | int) -> str:
     return repr(float(v))
 
 
-@dataclass(frozen=True, slots=True)
-class Op:
-    """One machine operation, with the stitch and source span it came from."""
+class Op(NamedTuple):
+    """One machine operation, with the stitch and source span it came from.
+
+    A named tuple (immutable, compared by value) rather than a frozen dataclass: a program
+    has a few ops per stitch, and building a tuple costs a fraction of a frozen
+    dataclass's field-by-field initialisation."""
 
     kind: str
     dir: int = 0
@@ -403,6 +406,22 @@ class MachineProgram:
             self._racking = op.value  # type: ignore[assignment]
         elif op.kind in SETTING_KINDS:
             self._settings[op.kind] = op.value
+        self.ops.append(op)
+        return op
+
+    def needle_op(
+        self,
+        kind: str,
+        dir: int,
+        needle: Needle,
+        carriers: tuple[int, ...],
+        stitch: int,
+        span: Span | None,
+    ) -> Op:
+        """A knit, tuck or miss from values already in their final form (a `Needle`, a
+        tuple of int carriers, explicit provenance): what `knit`/`tuck`/`miss` build, without
+        their coercions. Code generation makes one per stitch through here."""
+        op = Op(kind, dir, needle, None, carriers, None, stitch, span, self._phase)
         self.ops.append(op)
         return op
 
