@@ -52,12 +52,23 @@ class Bed:
     carrier_at: dict[int, float] = field(default_factory=dict)
     """Where each carrier in use was left (needle position, between needles)."""
     _span_of: list | None = None
+    _node_of: list[int] | None = None
 
     def span(self, s: int):
         if self._span_of is None:  # every stitch's span, looked up once per op otherwise
             spans = self.g.spans
             self._span_of = [spans[i] for i in self.g.span.tolist()]
         return self._span_of[s] if s >= 0 else None
+
+    def stitch_nodes(self) -> list[int] | None:
+        """The node of every stitch as a list, made once (the transfer planner asks it of
+        every loop on the bed, for every plan); None for a graph without nodes."""
+        if self._node_of is None:
+            node = getattr(self.g, "node", None)
+            if node is None:
+                return None
+            self._node_of = node.tolist()
+        return self._node_of
 
     def set_rack(self, r: int) -> None:
         if r != self.rack:

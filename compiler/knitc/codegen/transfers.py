@@ -300,12 +300,12 @@ class _Planner:
     def _piece(self, s: int) -> int | None:
         """The node of stitch s: the loops of one node on the bed form one cycle (a slice's
         ring holds the end of one course and the start of the next)."""
-        node = getattr(self.bed.g, "node", None)
+        node = self.bed.stitch_nodes()
         if node is None:
             return self._course(s)
         if s < 0 or s >= len(node):
             return None
-        return int(node[s])
+        return node[s]
 
     def _free_range(self, free: tuple[int, int] | None) -> None:
         """The needles the plan may use: those between the nearest loops of other pieces
