@@ -216,11 +216,20 @@ def main() -> int:
     print(f"view: {view}", file=sys.stderr)
     lsp = run_lsp()
     print(f"lsp: {lsp}", file=sys.stderr)
+    sys.path.insert(0, str(REPO / "bench"))
+    import targets  # whole-process cases, the peers and the original system
+
+    speed = targets.run_targets(tmp / "targets")
     doc = {"machine": {"python": platform.python_version(), "cpu": platform.processor() or
                        platform.machine()},
            "date": time.strftime("%Y-%m-%d"), "results": results, "k2dat": k2dat,
-           "view": view, "lsp": lsp}
+           "view": view, "lsp": lsp, "whole_process": speed["cases"], "peers": speed["peers"],
+           "original": speed["original"], "targets": speed["targets"]}
     (REPO / "bench" / "results.json").write_text(json.dumps(doc, indent=1) + "\n")
+    print("Speed targets (whole processes, CPU seconds; ratios are peer / knitc):")
+    print()
+    print(targets.table(speed))
+    print()
     print("| case | stitches | stage reached | knitc seconds | peak MB |")
     print("|---|---:|---|---:|---:|")
     for r in results:
