@@ -80,7 +80,7 @@ class Bed:
             self.rack = r
 
     def xfer(self, src: Pos, dst: Pos, stitch: int) -> None:
-        self.prog.xfer(needle(src), needle(dst), stitch=stitch, span=self.span(stitch))
+        self.prog.needle_op("xfer", 0, needle(src), (), stitch, self.span(stitch), needle(dst))
         moved = self.loops.pop(src, 0)
         self.loops[dst] += moved
         for s in self.at.pop(src, ()):

@@ -417,11 +417,12 @@ class MachineProgram:
         carriers: tuple[int, ...],
         stitch: int,
         span: Span | None,
+        needle2: Needle | None = None,
     ) -> Op:
-        """A knit, tuck or miss from values already in their final form (a `Needle`, a
-        tuple of int carriers, explicit provenance): what `knit`/`tuck`/`miss` build, without
-        their coercions. Code generation makes one per stitch through here."""
-        op = Op(kind, dir, needle, None, carriers, None, stitch, span, self._phase)
+        """A knit, tuck, miss or xfer from values already in their final form (`Needle`s, a
+        tuple of int carriers, explicit provenance): what `knit`/`tuck`/`miss`/`xfer` build,
+        without their coercions. Code generation makes one per stitch through here."""
+        op = Op(kind, dir, needle, needle2, carriers, None, stitch, span, self._phase)
         self.ops.append(op)
         return op
 
@@ -693,7 +694,27 @@ _PHASES = frozenset(CODE_PASSES)
 _BED_NAMES = frozenset(BEDS)
 
 
-def _plain_ok(op: Op, machine: Machine, carrier_limit: bool) -> bool:
+def _plain_xfer_ok(op: Op) -> bool:
+    """`_plain_ok` for a transfer: two hooks or sliders of opposite beds, nothing else."""
+    n, m = op.needle, op.needle2
+    return (
+        type(n) is Needle
+        and type(m) is Needle
+        and n.bed in _BED_NAMES
+        and m.bed in _BED_NAMES
+        and type(n.index) is int
+        and type(m.index) is int
+        and n.is_front != m.is_front
+        and op.dir == 0
+        and not op.carriers
+        and op.value is None
+        and type(op.stitch) is int
+        and op.stitch >= -1
+        and op.phase in _PHASES
+    )
+
+
+def _plain_ok(op: Op, machine: Machine) -> bool:
     """The common case of `op_problems` at a glance: a knit, tuck or miss that is well
     formed in every respect the full check looks at (most of a program's ops; a False
     only sends the op through the full check, which then says what is wrong)."""
@@ -723,7 +744,9 @@ def op_problems(op: Op, machine: Machine, *, carrier_limit: bool = True) -> list
     a Knitout file from another tool may name three, so the simulator passes
     `carrier_limit=False` and reports them as a finding of their own."""
     k = op.kind
-    if k in _PLAIN_KINDS and _plain_ok(op, machine, carrier_limit):
+    if k in _PLAIN_KINDS and _plain_ok(op, machine):
+        return []
+    if k == "xfer" and _plain_xfer_ok(op):
         return []
     if k not in KINDS:
         return [f"unknown kind {k!r}"]
