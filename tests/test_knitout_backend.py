@@ -273,6 +273,23 @@ def test_write_read_round_trip(op_list):
     assert write_knitout(read_knitout(text), one_carrier_per_line=False) == text
 
 
+spans = st.sampled_from([None, Span("a.knit", 3, 5, 3, 12), Span("b c.knit", 1, 1, 2, 4)])
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(st.tuples(ops, spans), max_size=30), st.booleans(), st.booleans())
+def test_the_fast_writer_writes_the_line_map(op_spans, sc, one):
+    # write_knitout formats each distinct op and span once; its text must stay the lines
+    # knitout_lines (the line map tools use) gives, for every kind and option
+    p = MachineProgram(ops=[op._replace(span=sp, stitch=3) for op, sp in op_spans])
+    p.emit(Op("comment", value="two\nlines"))
+    p.emit(Op("pause", value="check the yarn"))
+    lines = knitout_lines(p, source_comments=sc, one_carrier_per_line=one)
+    assert write_knitout(p, source_comments=sc, one_carrier_per_line=one) == (
+        "\n".join(line for line, _ in lines) + "\n"
+    )
+
+
 # ---- the independent oracle ------------------------------------------------------------------
 
 

@@ -85,11 +85,37 @@ def knitout_lines(
 def write_knitout(
     prog: MachineProgram, *, source_comments: bool = True, one_carrier_per_line: bool = True
 ) -> str:
-    """The Knitout text of `prog` (LF line ends, a final newline)."""
-    lines = knitout_lines(
-        prog, source_comments=source_comments, one_carrier_per_line=one_carrier_per_line
-    )
-    return "\n".join(line for line, _ in lines) + "\n"
+    """The Knitout text of `prog` (LF line ends, a final newline): the lines of
+    `knitout_lines`, written faster. A program names few distinct needle operations many
+    times over and has one span per stitch or DSL line, so the text of each distinct
+    operation (its fields but provenance: `Op.__str__` reads no others) and the source
+    comment of each span are formatted once."""
+    out = header_lines(prog)
+    bodies: dict[tuple, str] = {}
+    tails: dict[int, str] = {}  # id(span) -> its comment; the ops keep the spans alive
+    for op in prog.ops:
+        if op.kind not in _NEEDLE_KINDS:
+            out += op_lines(
+                op, source_comments=source_comments, one_carrier_per_line=one_carrier_per_line
+            )
+            continue
+        key = op[:6]  # kind, dir, needle, needle2, carriers, value
+        body = bodies.get(key)
+        if body is None:
+            body = bodies[key] = str(op)
+        span = op.span
+        if source_comments and span is not None:
+            tail = tails.get(id(span))
+            if tail is None:
+                tail = tails[id(span)] = source_comment(op)
+            body += tail
+        out.append(body)
+    return "\n".join(out) + "\n"
+
+
+_NEEDLE_KINDS = frozenset({"knit", "tuck", "miss", "split", "xfer", "drop", "amiss"})
+"""The ops `write_knitout` formats through its cache: one line each, text from needles,
+direction and carriers only."""
 
 
 def op_of_line(prog: MachineProgram, line: int, **options: bool) -> int:
