@@ -40,7 +40,9 @@ The work is one pass over the ops with constant work per op (the active carriers
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from operator import attrgetter
 from typing import cast
 
 from knitc.backends.dat import (
@@ -65,7 +67,20 @@ from knitc.backends.dat import (
     DatImage,
     DatPass,
 )
-from knitc.codegen.machine import MachineProgram, Needle
+from knitc.codegen.machine import Machine, MachineProgram, Needle
+
+OpRecord = tuple[
+    str,
+    int,
+    Needle | None,
+    Needle | None,
+    tuple[int, ...],
+    float | int | str | tuple[float | int, float | int] | None,
+]
+"""An op as the writer reads it: (kind, dir, needle, needle2, carriers, value), the first
+fields of `Op` in order."""
+
+_RECORD = attrgetter("kind", "dir", "needle", "needle2", "carriers", "value")
 
 __all__ = [
     "DEFAULT_WIDTH",
@@ -73,6 +88,8 @@ __all__ = [
     "STITCH_TABLE",
     "carrier_code",
     "stitch_number",
+    "OpRecord",
+    "records_to_dat",
     "to_dat",
 ]
 
@@ -332,6 +349,16 @@ class _SplitViaSliders:
 
 
 _IS_BACK = {"f": False, "fs": False, "b": True, "bs": True}
+_STITCH_KINDS = frozenset(("knit", "tuck", "miss"))
+_CODES = {
+    ("knit", False): KNIT_F,
+    ("knit", True): KNIT_B,
+    ("tuck", False): TUCK_F,
+    ("tuck", True): TUCK_B,
+    ("miss", False): MISS_F,
+    ("miss", True): MISS_B,
+}
+"""The colour of a knit, tuck or miss by (kind, on the back bed)."""
 
 
 def _js_key_order(keys: list[int]) -> list[int]:
@@ -346,9 +373,10 @@ def _js_key_order(keys: list[int]) -> list[int]:
 class _Writer:
     """The converter's state machine over one program (research §2.6.1)."""
 
-    def __init__(self, prog: MachineProgram) -> None:
-        self.prog = prog
-        self.limit = min(prog.machine.racking_limit, MAX_RACKING)
+    def __init__(self, ops: Sequence[OpRecord], machine: Machine) -> None:
+        self.ops = ops
+        self.machine = machine
+        self.limit = min(machine.racking_limit, MAX_RACKING)
         self.passes: list[_Pass] = []
         self.carriers: dict[int, _Carrier] = {}
         self.order: list[int] = []
@@ -642,25 +670,85 @@ class _Writer:
     # -- ops ------------------------------------------------------------------------------------
 
     def run(self) -> None:
-        ops = self.prog.ops
-        for i, op in enumerate(ops):
+        passes, carriers, good_sets = self.passes, self.carriers, self.good_sets
+        is_back = _IS_BACK
+        for i, (k, d, n, n2, cs, value) in enumerate(self.ops):
             self.i = i
-            k = op.kind
-            if k in ("knit", "tuck", "miss", "drop", "amiss"):
-                self.stitch_op(op.kind, op.dir, op.needle, op.carriers)
-            elif k in ("split", "xfer"):
-                self.split_op(op.kind, op.dir, op.needle, op.needle2, op.carriers)
+            if k in _STITCH_KINDS:
+                # The common case, inline: a one-carrier knit, tuck or miss that joins the
+                # previous pass at its moving end, with no carrier to kick first. Anything
+                # else (and anything wrong) takes `stitch_op`, the converter's full rules.
+                if (
+                    len(cs) == 1
+                    and n is not None
+                    and self.svs is None
+                    and cs in good_sets
+                    and (d == 1 or d == -1)
+                    and passes
+                    and not self.pause_pending
+                ):
+                    bed, index = n
+                    back = is_back[bed]
+                    car = carriers.get(cs[0])
+                    if (
+                        car is not None
+                        and car.pending is None
+                        and (k == "miss" or (bed != "fs" and bed != "bs" and len(self.order) == 1))
+                    ):
+                        p = passes[-1]
+                        slot = index + self.fl if back else index
+                        if (
+                            p.type == T_KNIT
+                            and p.dir == d
+                            and (slot > p.hi if d > 0 else slot < p.lo)
+                            and p.carriers == cs
+                            and p.racking == self.racking
+                            and p.stitch == self.stitch
+                            and p.speed == self.speed
+                            and p.hook != HOOK_OUT
+                            and p.gripper != GRIP_OUT
+                        ):
+                            code = _CODES[k, back]
+                            presser = self.presser
+                            pp = p.presser
+                            # (the presser, when on, keeps a pass on one bed's hooks)
+                            if (pp is None or presser == pp) and (
+                                pp != "on" or k == "miss" or not (p.front if back else p.back)
+                            ):
+                                p.presser = presser
+                                if slot < self.lo[0]:  # type: ignore[index]
+                                    self.lo = (slot, i)
+                                if slot > self.hi[0]:  # type: ignore[index]
+                                    self.hi = (slot, i)
+                                p.slots[slot] = code
+                                if d > 0:
+                                    p.hi = slot
+                                else:
+                                    p.lo = slot
+                                if k != "miss":
+                                    if back:
+                                        p.back = True
+                                    else:
+                                        p.front = True
+                                car.last = car.kick = n
+                                car.last_dir = car.kick_dir = d
+                                continue
+                self.stitch_op(k, d, n, cs)
+            elif k == "drop" or k == "amiss":
+                self.stitch_op(k, d, n, cs)
+            elif k == "split" or k == "xfer":
+                self.split_op(k, d, n, n2, cs)
             elif k == "rack":
-                self.rack(op.value)
-            elif k in ("in", "inhook"):
-                self.bring_in(k, op.carriers)
+                self.rack(value)
+            elif k == "in" or k == "inhook":
+                self.bring_in(k, cs)
             elif k == "releasehook":
-                self.release(op.carriers)
-            elif k in ("out", "outhook"):
-                self.take_out(k, op.carriers)
+                self.release(cs)
+            elif k == "out" or k == "outhook":
+                self.take_out(k, cs)
             elif k == "stitch":
                 self.no_svs("change the stitch")
-                lead, tight = cast("tuple[float, float]", op.value)
+                lead, tight = cast("tuple[float, float]", value)
                 number = stitch_number(lead, tight)
                 if number is None:
                     raise self.fail(
@@ -670,15 +758,15 @@ class _Writer:
                 self.stitch = number
             elif k == "stitch_number":
                 self.no_svs("change the stitch number")
-                self.stitch = self.setting(op.value, MAX_STITCH_NUMBER, "stitch number")
+                self.stitch = self.setting(value, MAX_STITCH_NUMBER, "stitch number")
             elif k == "speed":
                 self.no_svs("change the speed")
-                self.speed = self.setting(op.value, MAX_SPEED_NUMBER, "speed number")
+                self.speed = self.setting(value, MAX_SPEED_NUMBER, "speed number")
             elif k == "presser":
                 self.no_svs("change the presser mode")
-                if op.value not in ("on", "off", "auto"):
-                    raise self.fail(f"presser mode {op.value!r} is not on, off or auto")
-                self.presser = op.value
+                if value not in ("on", "off", "auto"):
+                    raise self.fail(f"presser mode {value!r} is not on, off or auto")
+                self.presser = cast(str, value)
             elif k == "pause":
                 self.no_svs("pause")
                 self.pause_pending = True
@@ -924,7 +1012,7 @@ class _Writer:
                 f"each side must stay below {MAX_SIDE + 1}",
                 widest if used + 110 > MAX_SIDE else passes[MAX_SIDE - 19].op,
             )
-        needles = self.prog.machine.needles
+        needles = self.machine.needles
         if used > needles:
             raise DatWriteError(
                 f"the design spans {used} needles (slots {lo}..{hi}); the machine has {needles}",
@@ -1049,9 +1137,22 @@ def to_dat(
     ``;;Position:``). Raises DatWriteError for a program a Shima machine or its DAT cannot
     take, with the index of the op responsible.
     """
-    w = width if width is not None else prog.width if prog.width is not None else DEFAULT_WIDTH
+    return records_to_dat(
+        list(map(_RECORD, prog.ops)),
+        prog.machine,
+        width=width if width is not None else prog.width,
+        position=position if position is not None else prog.position,
+    )
+
+
+def records_to_dat(
+    ops: Sequence[OpRecord], machine: Machine, *, width: int | None, position: str
+) -> DatImage:
+    """`to_dat` of a program given as its ops' `OpRecord`s and its machine (`width` None:
+    540). What `knitc k2dat` converts a Knitout file through, without making its ops."""
+    w = width if width is not None else DEFAULT_WIDTH
     if isinstance(w, bool) or not isinstance(w, int) or w < 1:
         raise DatWriteError(f"bed width {w!r} is not a positive integer")
-    writer = _Writer(prog)
+    writer = _Writer(ops, machine)
     writer.run()
-    return writer.image(w, position if position is not None else prog.position)
+    return writer.image(w, position)
