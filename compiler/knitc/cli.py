@@ -482,11 +482,26 @@ def _read_input(path: str, binary: bool) -> str | bytes | None:
 
 
 def _cmd_k2dat(args: argparse.Namespace) -> int:
-    from knitc.backends.knitout_read import read_knitout_file
+    from knitc.backends.knitout_read import knitout_to_dat, read_knitout, read_knitout_file
 
-    if not _output_ok(args.output or os.path.splitext(args.file)[0] + ".dat", (args.file,)):
+    out = args.output or os.path.splitext(args.file)[0] + ".dat"
+    if not _output_ok(out, (args.file,)):
         return 1
-    prog, diags = read_knitout_file(args.file)
+    try:
+        with open(args.file, "rb") as f:
+            text: str | None = f.read().decode("utf-8")
+    except (OSError, UnicodeDecodeError):
+        text = None  # read_knitout_file says why
+    if text is not None:
+        # A clean file converts straight to its DAT; one with anything to report (an error,
+        # a warning, an op the DAT cannot take) is read again with its ops' spans, which
+        # locate the diagnostics, and converted through the driver.
+        data = knitout_to_dat(text, args.file)
+        if data is not None:
+            return 0 if _write(out, data) else 1
+        prog, diags = read_knitout(text, args.file)
+    else:
+        prog, diags = read_knitout_file(args.file)
     if prog is None:
         _report(diags, args.quiet)
         return 1
@@ -494,7 +509,6 @@ def _cmd_k2dat(args: argparse.Namespace) -> int:
     if data is None:
         return 1
     _report(diags, args.quiet)
-    out = args.output or os.path.splitext(args.file)[0] + ".dat"
     return 0 if _write(out, data) else 1
 
 
