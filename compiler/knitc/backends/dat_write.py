@@ -350,15 +350,9 @@ class _SplitViaSliders:
 
 _IS_BACK = {"f": False, "fs": False, "b": True, "bs": True}
 _STITCH_KINDS = frozenset(("knit", "tuck", "miss"))
-_CODES = {
-    ("knit", False): KNIT_F,
-    ("knit", True): KNIT_B,
-    ("tuck", False): TUCK_F,
-    ("tuck", True): TUCK_B,
-    ("miss", False): MISS_F,
-    ("miss", True): MISS_B,
-}
-"""The colour of a knit, tuck or miss by (kind, on the back bed)."""
+_FRONT_CODES = {"knit": KNIT_F, "tuck": TUCK_F, "miss": MISS_F}
+_BACK_CODES = {"knit": KNIT_B, "tuck": TUCK_B, "miss": MISS_B}
+"""The colour of a knit, tuck or miss on the front / back bed."""
 
 
 def _js_key_order(keys: list[int]) -> list[int]:
@@ -672,69 +666,89 @@ class _Writer:
     def run(self) -> None:
         passes, carriers, good_sets = self.passes, self.carriers, self.good_sets
         is_back = _IS_BACK
+        # The common case, inline: a one-carrier knit, tuck or miss that joins the last pass
+        # at its moving end, with no other carrier to kick. `fast_cs` and `fast_dir` are the
+        # carriers and direction of such ops that the last pass and the writer's state (its
+        # settings, the carrier, no pause or split via sliders pending) have been checked
+        # for, with those values in the locals below; fast_cs None: not checked. Any other
+        # op goes through the converter's full rules (and every error is found there) and
+        # then the state is checked again.
+        fast_cs: tuple[int, ...] | None = None
+        fast_dir = 0
+        p, car = cast(_Pass, None), cast(_Carrier, None)  # set whenever fast_cs is
+        fl, single, on, presser, lo, hi = 0, False, False, "", (0, 0), (0, 0)
         for i, (k, d, n, n2, cs, value) in enumerate(self.ops):
-            self.i = i
             if k in _STITCH_KINDS:
-                # The common case, inline: a one-carrier knit, tuck or miss that joins the
-                # previous pass at its moving end, with no carrier to kick first. Anything
-                # else (and anything wrong) takes `stitch_op`, the converter's full rules.
-                if (
-                    len(cs) == 1
-                    and n is not None
-                    and self.svs is None
-                    and cs in good_sets
-                    and (d == 1 or d == -1)
-                    and passes
-                    and not self.pause_pending
-                ):
-                    bed, index = n
-                    back = is_back[bed]
-                    car = carriers.get(cs[0])
+                if fast_cs is None or cs is not fast_cs or d != fast_dir:
+                    fast_cs = None
                     if (
-                        car is not None
-                        and car.pending is None
-                        and (k == "miss" or (bed != "fs" and bed != "bs" and len(self.order) == 1))
+                        len(cs) == 1
+                        and self.svs is None
+                        and cs in good_sets
+                        and (d == 1 or d == -1)
+                        and passes
+                        and not self.pause_pending
                     ):
+                        got = carriers.get(cs[0])
                         p = passes[-1]
-                        slot = index + self.fl if back else index
+                        presser = self.presser
                         if (
-                            p.type == T_KNIT
+                            got is not None
+                            and got.pending is None
+                            and p.type == T_KNIT
                             and p.dir == d
-                            and (slot > p.hi if d > 0 else slot < p.lo)
                             and p.carriers == cs
                             and p.racking == self.racking
                             and p.stitch == self.stitch
                             and p.speed == self.speed
                             and p.hook != HOOK_OUT
                             and p.gripper != GRIP_OUT
+                            and (p.presser is None or p.presser == presser)
                         ):
-                            code = _CODES[k, back]
-                            presser = self.presser
-                            pp = p.presser
-                            # (the presser, when on, keeps a pass on one bed's hooks)
-                            if (pp is None or presser == pp) and (
-                                pp != "on" or k == "miss" or not (p.front if back else p.back)
-                            ):
-                                p.presser = presser
-                                if slot < self.lo[0]:  # type: ignore[index]
-                                    self.lo = (slot, i)
-                                if slot > self.hi[0]:  # type: ignore[index]
-                                    self.hi = (slot, i)
-                                p.slots[slot] = code
-                                if d > 0:
-                                    p.hi = slot
-                                else:
-                                    p.lo = slot
-                                if k != "miss":
-                                    if back:
-                                        p.back = True
-                                    else:
-                                        p.front = True
-                                car.last = car.kick = n
-                                car.last_dir = car.kick_dir = d
-                                continue
+                            fast_cs, fast_dir, car = cs, d, got
+                            fl, single, on = self.fl, len(self.order) == 1, presser == "on"
+                            assert self.lo is not None and self.hi is not None  # (a pass is)
+                            lo, hi = self.lo, self.hi
+                if fast_cs is not None and n is not None:
+                    bed, index = n
+                    back = is_back[bed]
+                    slot = index + fl if back else index
+                    # (knit and tuck kick other carriers, and not on sliders; the presser,
+                    # when on, keeps a pass on one bed's hooks)
+                    if (
+                        (slot > p.hi if d > 0 else slot < p.lo)
+                        and (k == "miss" or (single and bed != "fs" and bed != "bs"))
+                        and (not on or k == "miss" or not (p.back if not back else p.front))
+                    ):
+                        p.presser = presser
+                        if slot < lo[0]:
+                            lo = self.lo = (slot, i)
+                        if slot > hi[0]:
+                            hi = self.hi = (slot, i)
+                        if back:
+                            p.slots[slot] = _BACK_CODES[k]
+                            if k != "miss":
+                                p.back = True
+                        else:
+                            p.slots[slot] = _FRONT_CODES[k]
+                            if k != "miss":
+                                p.front = True
+                        if d > 0:
+                            p.hi = slot
+                        else:
+                            p.lo = slot
+                        car.last = car.kick = n
+                        car.last_dir = car.kick_dir = d
+                        continue
+                fast_cs = None
+                self.i = i
                 self.stitch_op(k, d, n, cs)
-            elif k == "drop" or k == "amiss":
+                continue
+            if k == "comment":
+                continue
+            fast_cs = None
+            self.i = i
+            if k == "drop" or k == "amiss":
                 self.stitch_op(k, d, n, cs)
             elif k == "split" or k == "xfer":
                 self.split_op(k, d, n, n2, cs)
@@ -770,14 +784,13 @@ class _Writer:
             elif k == "pause":
                 self.no_svs("pause")
                 self.pause_pending = True
-            elif k != "comment":
+            else:
                 raise self.fail(f"op kind {k!r} has no DAT form")
         self.i = -1
         for c in self.order:
-            car = self.carriers[c]
             raise DatWriteError(
                 f"carrier {c} is still in action at the end; take it out with out or outhook",
-                car.op,
+                self.carriers[c].op,
             )
 
     def setting(self, value: object, top: int, what: str) -> int:
