@@ -482,7 +482,13 @@ def _read_input(path: str, binary: bool) -> str | bytes | None:
 
 
 def _cmd_k2dat(args: argparse.Namespace) -> int:
-    from knitc.backends.knitout_read import knitout_to_dat, read_knitout, read_knitout_file
+    from knitc.backends.knitout_read import (
+        KnitoutError,
+        knitout_diagnostics,
+        knitout_to_dat,
+        read_knitout,
+        read_knitout_file,
+    )
 
     out = args.output or os.path.splitext(args.file)[0] + ".dat"
     if not _output_ok(out, (args.file,)):
@@ -493,11 +499,14 @@ def _cmd_k2dat(args: argparse.Namespace) -> int:
     except (OSError, UnicodeDecodeError):
         text = None  # read_knitout_file says why
     if text is not None:
-        # A clean file converts straight to its DAT; one with anything to report (an error,
-        # a warning, an op the DAT cannot take) is read again with its ops' spans, which
-        # locate the diagnostics, and converted through the driver.
-        data = knitout_to_dat(text, args.file)
+        # A file without errors converts straight to its DAT; one with an error, or an op
+        # the DAT cannot take, is read again with its ops' spans, which locate the
+        # diagnostics, and converted through the driver.
+        warnings: list[KnitoutError] = []
+        data = knitout_to_dat(text, args.file, warnings=warnings)
         if data is not None:
+            if warnings:
+                _report(knitout_diagnostics(args.file, text, (), warnings), args.quiet)
             return 0 if _write(out, data) else 1
         prog, diags = read_knitout(text, args.file)
     else:
