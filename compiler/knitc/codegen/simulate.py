@@ -66,7 +66,6 @@ from knitc.codegen.machine import (
     MachineProgram,
     Needle,
     Op,
-    aligned,
     format_number,
     op_problems,
     racking_for,
@@ -138,6 +137,13 @@ class Finding:
 
 # carrier states
 _OUT, _PENDING, _ACTIVE = 0, 1, 2
+
+_PASSIVE_KINDS = frozenset({"comment", "stitch", "stitch_number", "speed", "presser"})
+"""Ops that neither end a knitting pass nor a transfer pass."""
+_PASS_KINDS = frozenset({"knit", "tuck", "split", "miss"})
+"""Ops that go on a knitting pass (any other op that is not passive ends it)."""
+_FRONT_BEDS, _BACK_BEDS = ("f", "fs"), ("b", "bs")  # (`Needle.is_front`, `.is_back`)
+_SLIDER_BEDS = ("fs", "bs")  # (`Needle.is_slider`)
 
 _PassKey = tuple[int, tuple[int, ...], float]
 """What a knitting pass keeps (direction, carriers, racking): a loop op with another key,
@@ -268,6 +274,15 @@ class Simulator:
     # -- the run ------------------------------------------------------------------------------
 
     def run(self) -> list[Finding]:
+        """Every op in order, then the end state; the findings.
+
+        Almost every op of a compile is a plain knit or tuck: one carrier in action, on a
+        hook needle on the bed, no inserting hook, no loose yarn end, nothing to report. Those
+        take the fast path below, which makes exactly the state changes the general handlers
+        (`_in_pass`, `_use`, `_loop`, `_knit_through`, `_set`, `_new_loop`) make, in their
+        order, without their calls, property lookups and repeated dict lookups. It first
+        checks, changing nothing, that none of their findings can arise; when one might (or
+        anything unusual holds) the op goes the general way, which decides and reports."""
         handlers = {
             "in": self._in,
             "inhook": self._in,
@@ -283,18 +298,178 @@ class Simulator:
             "amiss": self._needle_only,
             "rack": self._rack,
         }
-        passive = ("comment", "stitch", "stitch_number", "speed", "presser")
+        passive = _PASSIVE_KINDS
+        in_pass_kinds = _PASS_KINDS
+        verified, machine = self.verified, self.machine
+        # the fast path's state (containers that are never replaced, thresholds)
+        fast = machine.max_carriers_per_op >= 1  # (else every op is an E811)
+        lo = self.bed_lo
+        hi = lo + machine.needles - 1
+        max_loops, max_float, max_misses = self.max_loops, self.max_float, self.max_misses
+        loops, loops_get, last_touch = self.loops, self.loops.get, self.last_touch
+        state, state_get = self.state, self.state.get
+        last_use, stitched_add = self.last_use, self.stitched.add
+        anchor, anchor_get = self.anchor, self.anchor.get
+        carrier_dir, carrier_dir_get = self.carrier_dir, self.carrier_dir.get
+        carrier_pass, carrier_pass_get = self.carrier_pass, self.carrier_pass.get
+        loose, missed, cast_on, cast_on_live = (
+            self.loose,
+            self.missed,
+            self.cast_on,
+            self.cast_on_live,
+        )
+        rev_stacked, rev_knit = self.rev_stacked, self.rev_knit
+        on_needle, on_needle_pop = self.on_needle, self.on_needle.pop
+        loop_at, loop_next, loop_next_d = self.loop_at, self.loop_next, self.loop_next_d
+        loop_more, last_loop, last_loop_get = self.loop_more, self.last_loop, self.last_loop.get
+        loop_at_append, loop_front_append = loop_at.append, self.loop_front.append
+        loop_prev_append, loop_prev_d_append = self.loop_prev.append, self.loop_prev_d.append
+        loop_next_append, loop_next_d_append = loop_next.append, loop_next_d.append
         for i, op in enumerate(self.prog.ops):
-            self._i = i
-            problems = () if self.verified else op_problems(op, self.machine, carrier_limit=False)
-            if problems:
-                self._report("malformed", f"`{op.kind}` op: " + "; ".join(problems))
-                continue
+            if not verified:
+                self._i = i
+                problems = op_problems(op, machine, carrier_limit=False)
+                if problems:
+                    self._report("malformed", f"`{op.kind}` op: " + "; ".join(problems))
+                    continue
             k = op.kind
+            cs = op.carriers
+            if (
+                (k == "knit" or k == "tuck")
+                and len(cs) == 1
+                and fast
+                and not self.hook  # (and so no parked hook: hook_slot is None)
+                and not self._moved  # (a transfer pass to end first)
+            ):
+                n = op.needle
+                assert n is not None
+                bed, idx = n
+                # a hook, not a slider (E808), on the bed (E806)
+                plain = (bed == "f" or bed == "b") and lo <= idx <= hi
+                if plain:
+                    front = bed == "f"
+                    r = self.racking
+                    d = op.dir
+                    # where n sits: `Needle.position` (an int on the front bed, not a float:
+                    # the same sums and comparisons)
+                    pos = idx if front else idx + r
+                    # _in_pass, which the general way would come to next: does n start a new
+                    # pass? Ending the last one counts the misses of the loops it passed over,
+                    # which the knit's W804 then reads, so that is done first, here.
+                    key = (d, cs, r)
+                    touched = self._pass_touched[front]
+                    new_pass = (
+                        key != self._pass_key or (pos - self._pass_pos) * d < 0 or idx in touched
+                    )
+                    if new_pass:
+                        self._end_pass()
+                    c = cs[0]
+                    held = loops_get(n, 0)
+                    prev = anchor_get(c)
+                if (
+                    plain
+                    and state_get(c, _OUT) != _OUT  # in (E802)
+                    and not (loose and c in loose)  # its first loop (W807)
+                    and (
+                        # a knit: onto a loop (W802), not one missed too often (W804), not
+                        # a cast-on loop (W808); it leaves one loop, never too many (W801)
+                        (
+                            held
+                            and not (missed and missed.get(n, 0) > max_misses)
+                            and not (cast_on_live and n in cast_on_live)
+                        )
+                        if k == "knit"
+                        else held + 1 <= max_loops  # a tuck: not one loop too many (W801)
+                    )
+                    and (  # no long float from the carrier's last loop (W803)
+                        prev is None
+                        or abs(pos - (prev.index + r if prev.bed in _BACK_BEDS else prev.index))
+                        <= max_float
+                    )
+                ):
+                    # the rest of _in_pass
+                    if new_pass:
+                        self._pass_key = key
+                        touched = self._pass_touched[front]
+                    self._pass_pos = pos
+                    touched.add(idx)
+                    lo_hi = self._pass_span.get(front)
+                    if lo_hi is None:
+                        self._pass_span[front] = [idx, idx]
+                    elif idx < lo_hi[0]:
+                        lo_hi[0] = idx
+                    elif idx > lo_hi[1]:
+                        lo_hi[1] = idx
+                    # _use
+                    state[c] = _ACTIVE
+                    last_use[c] = i
+                    if carrier_dir_get(c) != d:
+                        carrier_dir[c] = d
+                        self._passes += 1
+                        carrier_pass[c] = self._passes
+                    # _loop's carrier loop
+                    anchor[c] = n
+                    stitched_add(c)
+                    if k == "knit":
+                        # _knit_through, _set(n, 1), the old loops knitted off
+                        if missed:
+                            missed.pop(n, None)
+                        came_from = rev_stacked.pop(n, None) if rev_stacked else None
+                        if came_from is not None:
+                            rev_knit[n] = (came_from, i)
+                        elif rev_knit:
+                            rev_knit.pop(n, None)
+                        loops[n] = 1
+                        last_touch[n] = i
+                        for x in on_needle_pop(n, ()):
+                            loop_at[x] = None
+                    else:
+                        # _set(n, held + 1), the tuck's part of _loop
+                        loops[n] = held + 1
+                        last_touch[n] = i
+                        if rev_stacked:
+                            rev_stacked.pop(n, None)
+                        if rev_knit:
+                            rev_knit.pop(n, None)
+                        if held:
+                            if cast_on_live:
+                                cast_on_live.discard(n)
+                        else:
+                            cast_on[n] = (c, carrier_pass_get(c, -1))
+                            cast_on_live.add(n)
+                    # _new_loop(n, (c,)): its yarn neighbour, the carrier's last loop
+                    x = len(loop_at)
+                    y = last_loop_get(c)
+                    last_loop[c] = x
+                    y_d = -1
+                    if y is not None:
+                        ny = loop_at[y]
+                        if ny is not None and (ny.bed in _FRONT_BEDS) == front:
+                            y_d = abs(idx - ny.index)
+                            if loop_next[y] < 0:
+                                loop_next[y] = x
+                                loop_next_d[y] = y_d
+                            else:
+                                loop_more.setdefault(y, []).append((x, y_d))
+                        else:
+                            y = None
+                    loop_at_append(n)
+                    loop_front_append(front)
+                    loop_prev_append(-1 if y is None else y)
+                    loop_prev_d_append(y_d)
+                    loop_next_append(-1)
+                    loop_next_d_append(-1)
+                    if k == "knit":
+                        on_needle[n] = [x]
+                    else:
+                        on_needle.setdefault(n, []).append(x)
+                    continue
+            # the general way
+            self._i = i
             if k not in passive:
                 if k != "xfer" and self._moved:
                     self._end_xfer_pass()
-                if k not in ("knit", "tuck", "split", "miss"):
+                if k not in in_pass_kinds and self._pass_key is not None:
                     self._end_pass()
             h = handlers.get(k)
             if h is not None:
@@ -303,12 +478,15 @@ class Simulator:
         self._end_xfer_pass()
         if self.check_end:
             self._end()
-        for kind, n in self._counts.items():
-            if n > self.limit_per_kind:
+        for kind, count in self._counts.items():
+            if count > self.limit_per_kind:
                 sev = ERROR if CODES[kind].startswith("E") else WARNING
                 self.findings.append(
                     Finding(
-                        kind, sev, f"... and {n - self.limit_per_kind} more `{kind}` finding(s)", -1
+                        kind,
+                        sev,
+                        f"... and {count - self.limit_per_kind} more `{kind}` finding(s)",
+                        -1,
                     )
                 )
         return self.findings
@@ -318,9 +496,12 @@ class Simulator:
     def _in_range(self, op: Op) -> bool:
         """Whether the op's needles are on the bed; each needle off it is reported at its
         first use only (a program placed off the bed would repeat it on every line)."""
-        ok = True
         lo = self.bed_lo
         hi = lo + self.machine.needles - 1
+        n, n2 = op.needle, op.needle2
+        if (n is None or lo <= n.index <= hi) and (n2 is None or lo <= n2.index <= hi):
+            return True  # (the common case, without the loop)
+        ok = True
         for n in (op.needle, op.needle2):
             if n is not None and not lo <= n.index <= hi:
                 if n not in self.off_bed:
@@ -379,13 +560,22 @@ class Simulator:
     def _check_transfer(self, op: Op) -> bool:
         a, b = op.needle, op.needle2
         assert a is not None and b is not None
-        if a.is_slider and b.is_slider:
-            self._report("needle_use", f"`{op}` moves loops from a slider to a slider")
+        a_bed, b_bed = a.bed, b.bed
+        if a_bed in _SLIDER_BEDS and (b_bed in _SLIDER_BEDS or op.kind == "split"):
+            if b_bed in _SLIDER_BEDS:
+                self._report("needle_use", f"`{op}` moves loops from a slider to a slider")
+            else:
+                self._report("needle_use", f"`{op}` splits from a slider")
             return False
-        if op.kind == "split" and a.is_slider:
-            self._report("needle_use", f"`{op}` splits from a slider")
-            return False
-        if not aligned(a, b, self.racking):
+        # `aligned(a, b, racking)`, without its conversions and properties
+        a_front = a_bed in _FRONT_BEDS
+        if a_front == (b_bed in _FRONT_BEDS):
+            facing = False
+        elif a_front:
+            facing = b.index + self.racking == a.index
+        else:
+            facing = a.index + self.racking == b.index
+        if not facing:
             self._report(
                 "misaligned_xfer",
                 f"{a} and {b} are not aligned at racking "
@@ -396,13 +586,15 @@ class Simulator:
 
     def _move(self, a: Needle, b: Needle) -> None:
         """The loops of `a` join those of `b`; carriers whose last loop was on `a` follow."""
-        moved = self.loops.get(a, 0)
+        loops = self.loops
+        moved = loops.get(a, 0)
         if moved:
-            self._set(b, self.loops.get(b, 0) + moved)
-            self._set(a, 0)
-            for c, n in self.anchor.items():
+            self._set(b, loops.get(b, 0) + moved)
+            loops.pop(a, None)  # `_set(a, 0)`: no count is negative, so it never reports
+            anchor = self.anchor
+            for c, n in anchor.items():
                 if n == a:
-                    self.anchor[c] = b
+                    anchor[c] = b
             if self.missed:
                 m = self.missed.pop(a, 0)
                 if m or b in self.missed:
@@ -412,9 +604,10 @@ class Simulator:
                 self.cast_on_live.discard(b)
         ids = self.on_needle.pop(a, None)
         if ids:
+            at, pass_moved, i = self.loop_at, self._moved, self._i
             for x in ids:
-                self.loop_at[x] = b
-                self._moved[x] = self._i
+                at[x] = b
+                pass_moved[x] = i
             self.on_needle.setdefault(b, []).extend(ids)
 
     def _xfer(self, op: Op) -> None:
@@ -447,9 +640,13 @@ class Simulator:
             self.rev_stacked.pop(b, None)
         if self.rev_knit:
             self.rev_knit.pop(b, None)
-        on, front = self.on_needle, self.loop_front
-        if any(front[x] == b.is_front for x in on.get(b, ())) and any(
-            front[x] == a.is_front for x in on.get(a, ())
+        front = self.loop_front
+        on_a, on_b = self.on_needle.get(a), self.on_needle.get(b)
+        if (  # (most transfers go onto an empty needle: nothing to look through)
+            on_a
+            and on_b
+            and any(front[x] == (b.bed in _FRONT_BEDS) for x in on_b)
+            and any(front[x] == (a.bed in _FRONT_BEDS) for x in on_a)
         ):  # each needle holds a loop knitted on its own bed (else a lace move or decrease)
             self.rev_stacked[b] = a
 
@@ -462,7 +659,14 @@ class Simulator:
         moved, self._moved = self._moved, {}
         if not moved:
             return
-        at = self.loop_at
+        at, max_stretch = self.loop_at, self.max_stretch
+        prev, prev_d, nxt, nxt_d = (
+            self.loop_prev,
+            self.loop_prev_d,
+            self.loop_next,
+            self.loop_next_d,
+        )
+        more = self.loop_more
         worst: tuple[int, int, int, int] | None = None  # stretch, loop, neighbour, op
         # in stitch widths: the needles they were knitted apart (one in full gauge, two in
         # half gauge, where the loops are as long as two needles' worth of yarn)
@@ -470,12 +674,19 @@ class Simulator:
             nx = at[x]
             if nx is None:
                 continue
-            for y, knitted in self.neighbours(x):
+            x_front = nx.bed in _FRONT_BEDS
+            # `self.neighbours(x)`, in its order (one list made, not three)
+            nbs = [(prev[x], prev_d[x]), (nxt[x], nxt_d[x])]
+            if more:
+                nbs += more.get(x, ())
+            for y, knitted in nbs:
+                if y < 0:
+                    continue
                 ny = at[y]
-                if ny is None or ny.is_front != nx.is_front:
+                if ny is None or (ny.bed in _FRONT_BEDS) != x_front:
                     continue
                 s = abs(nx.index - ny.index) - knitted
-                if s > self.max_stretch * max(knitted, 1) and (worst is None or s > worst[0]):
+                if s > max_stretch * max(knitted, 1) and (worst is None or s > worst[0]):
                     worst = (s, x, y, i)
         if worst is not None:
             s, x, y, i = worst
