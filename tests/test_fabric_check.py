@@ -68,7 +68,7 @@ def tuck_instead_of_knit(r: Result) -> tuple[Result, int]:
     s = stitch_at(r, 3, 4)
     ops = list(r.program.ops)
     i = action_op(r, s)
-    ops[i] = dataclasses.replace(ops[i], kind="tuck")
+    ops[i] = ops[i]._replace(kind="tuck")
     return with_ops(r, ops), s
 
 
@@ -120,7 +120,7 @@ def open_start(r: Result) -> tuple[Result, int]:
                 phase=o.phase,
             )
         elif o.stitch in back and o.phase == "action" and o.kind == "knit":
-            ops[i] = dataclasses.replace(o, kind="tuck", dir=-o.dir)
+            ops[i] = o._replace(kind="tuck", dir=-o.dir)
     return with_ops(r, ops), back[0]
 
 
