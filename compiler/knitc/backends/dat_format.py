@@ -38,9 +38,9 @@ converter's own files for these cases).
 
 from __future__ import annotations
 
+import re
 from itertools import chain
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from knitc.backends.dat import (
     KNIT_B,
@@ -56,6 +56,12 @@ from knitc.backends.dat import (
     DatPass,
     Row,
 )
+
+if TYPE_CHECKING:
+    import numpy as np
+
+# numpy is imported by the functions that use it, not here: `encode` does without it (the
+# rows of a DAT are a few hundred bytes each), so `knitc k2dat` never loads it.
 
 __all__ = ["DatError", "PALETTE", "decode", "encode", "pack", "read_raster", "render", "rows"]
 
@@ -134,6 +140,8 @@ def _rle(raster: np.ndarray) -> bytes:
     0-length pair of its colour. That last pair is what the converter's encoder writes (it
     flushes at 255 and then flushes the empty run again at the colour change); readers skip
     it, and writing it keeps knitc's DATs byte-identical with the converter's."""
+    import numpy as np
+
     height, width = raster.shape
     flat = raster.reshape(-1)
     starts_mask = np.ones((height, width), dtype=bool)
@@ -154,6 +162,8 @@ def _rle(raster: np.ndarray) -> bytes:
 
 def pack(raster: np.ndarray) -> bytes:
     """The DAT bytes of a raster (row 0 = bottom row, the first in the file)."""
+    import numpy as np
+
     if raster.ndim != 2 or raster.dtype != np.uint8:
         raise DatError("a DAT raster is a 2-D array of uint8 colour indices")
     height, width = raster.shape
@@ -172,6 +182,8 @@ def read_raster(data: bytes, *, strict: bool = False, max_width: int = MAX_SIDE)
     any machine knits is refused before the raster is allocated) and that the runs fill
     exactly W x H pixels; `strict` also wants the converter's header words, palette, padding and
     canonical (greedy, per-row) runs, i.e. ``pack(read_raster(b, strict=True)) == b``."""
+    import numpy as np
+
     data = bytes(data)
     if len(data) < HEADER_SIZE:
         raise DatError(
@@ -240,12 +252,18 @@ TOP = 11
 POSITION_X = 48
 """x of the position code (the L1 value column), in the width row and the row above."""
 
-_L_VALUE_X = np.arange(48, 9, -2)
-"""L1..L20 value columns (x = 50 - 2o); each marker sits just right of its value."""
+
+def _l_value_x() -> np.ndarray:
+    """L1..L20 value columns (x = 50 - 2o); each marker sits just right of its value."""
+    import numpy as np
+
+    return np.arange(48, 9, -2)
 
 
 def _r_value_x(p: int) -> np.ndarray:
     """R1..R20 value columns (x = 59 + P + 2o); each marker sits just left of its value."""
+    import numpy as np
+
     return np.arange(61 + p, 100 + p, 2)
 
 
@@ -286,6 +304,8 @@ def _slot_range(image: DatImage) -> int:
 
 
 def _option_matrix(passes: list[DatPass], side: str) -> np.ndarray:
+    import numpy as np
+
     values = [p.left if side == "L" else p.right for p in passes]
     for i, v in enumerate(values):
         if len(v) != N_OPTIONS:
@@ -303,6 +323,8 @@ def _option_matrix(passes: list[DatPass], side: str) -> np.ndarray:
 def render(image: DatImage) -> np.ndarray:
     """The raster of an image (row 0 = bottom), with the fixed courses, width row and position
     code added. Raises DatError for an image no DAT can hold."""
+    import numpy as np
+
     p = _slot_range(image)
     passes = image.passes
     n = len(passes)
@@ -375,12 +397,12 @@ def render(image: DatImage) -> np.ndarray:
         ]
     )
     markers = np.arange(1, N_OPTIONS + 1)
-    r_x = _r_value_x(p)
-    raster[course_y[:, None], _L_VALUE_X] = lefts
-    raster[course_y[:, None], _L_VALUE_X + 1] = markers
+    l_x, r_x = _l_value_x(), _r_value_x(p)
+    raster[course_y[:, None], l_x] = lefts
+    raster[course_y[:, None], l_x + 1] = markers
     raster[course_y[:, None], r_x] = rights
     raster[course_y[:, None], r_x - 1] = markers
-    raster[course_y, _L_VALUE_X[0] + 1] = course_dir
+    raster[course_y, l_x[0] + 1] = course_dir
     raster[course_y, r_x[0] - 1] = course_dir
 
     # Width row (slots min-5 .. max+5) and the position code in the L1 value column.
@@ -396,7 +418,150 @@ def render(image: DatImage) -> np.ndarray:
 
 def encode(image: DatImage) -> bytes:
     """The DAT bytes of an image: header, the converter's palette, greedy row-by-row runs."""
-    return pack(render(image))
+    data = _encode_rows(image)
+    return data if data is not None else pack(render(image))
+
+
+# `encode` without numpy: the raster built row by row as bytes (each row the left option bar,
+# the slot band, the right option bar) and run-length encoded row by row, a row seen before
+# (most of a fabric's) from a cache. Exactly `pack(render(image))` for any image `render`
+# takes; anything it might refuse (or take only after converting, such as a float or a numpy
+# number) makes it give up, and `render` then raises or converts as it does.
+
+_RUN = re.compile(rb"(.)\1*", re.S)
+_L_MARKERS = bytes(range(N_OPTIONS, 0, -1))
+_R_MARKERS = bytes(range(1, N_OPTIONS + 1))
+_BAR = SLOT_X - 1
+"""Columns left of the slot band (margin, L option bar, gap), and right of it."""
+
+
+def _left_bar(values: list[int], direction: int) -> bytes:
+    """Columns 0..53 of a course: L20..L1 values at x = 10, 12, .., 48, each with its marker
+    (20..1) just right of it, the L1 marker being the direction code."""
+    bar = bytearray(_BAR)
+    bar[10:50:2] = bytes(reversed(values))
+    bar[11:50:2] = _L_MARKERS
+    bar[49] = direction
+    return bytes(bar)
+
+
+def _right_bar(values: list[int], direction: int) -> bytes:
+    """The 54 columns right of the slot band: R1..R20 values at 5, 7, .., 43 past it, each with
+    its marker (1..20) just left of it, the R1 marker being the direction code."""
+    bar = bytearray(_BAR)
+    bar[5:44:2] = bytes(values)
+    bar[4:43:2] = _R_MARKERS
+    bar[4] = direction
+    return bytes(bar)
+
+
+def _band(slots: dict[int, int], lo: int, p: int) -> bytearray | None:
+    """The slot band of a pass (stop-mark column to stop-mark column, P + 2 wide), or None if
+    a slot is outside lo..lo + P - 1 or its colour is not one a slot can have."""
+    band = bytearray(p + 2)
+    keys = list(slots)
+    k0, m = keys[0], len(keys)
+    if keys == list(range(k0, k0 + m)):  # a pass to the right: slots in order
+        first, last = k0, k0 + m - 1
+        codes = bytes(slots.values())
+    elif keys == list(range(k0, k0 - m, -1)):  # to the left
+        first, last = k0 - m + 1, k0
+        codes = bytes(reversed(slots.values()))
+    else:
+        first, last = min(keys), max(keys)
+        if first < lo or last >= lo + p:
+            return None
+        for s, c in slots.items():
+            if c == 0 or c == STOP:
+                return None
+            band[s - lo + 1] = c
+        band[first - lo] = band[last - lo + 2] = STOP
+        return band
+    if first < lo or last >= lo + p or 0 in codes or STOP in codes:
+        return None
+    band[first - lo + 1 : last - lo + 2] = codes
+    band[first - lo] = band[last - lo + 2] = STOP
+    return band
+
+
+def _encode_rows(image: DatImage) -> bytes | None:
+    """`pack(render(image))` without numpy, or None (see above)."""
+    lo, pos = image.min_slot, image.position or 0
+    if type(lo) is not int or type(image.max_slot) is not int or type(pos) is not int:
+        return None
+    p, passes = image.max_slot - lo + 1, image.passes
+    n = len(passes)
+    width, height = p + 2 * SIDE, n + PASS_Y + TOP
+    if p < 1 or width > MAX_SIDE or height > MAX_SIDE or not 0 <= pos <= 255 * 100 + 99:
+        return None
+    lefts: dict[tuple[object, ...], bytes] = {}
+    rights: dict[tuple[object, ...], bytes] = {}
+
+    def course(band: bytes | bytearray, direction: int, left: list[int], right: list[int]) -> bytes:
+        lkey, rkey = (direction, *left), (direction, *right)
+        lbar, rbar = lefts.get(lkey), rights.get(rkey)
+        if lbar is None:
+            lbar = lefts[lkey] = _left_bar(left, direction)
+        if rbar is None:
+            rbar = rights[rkey] = _right_bar(right, direction)
+        return b"".join((lbar, band, rbar))
+
+    def fixed(courses: list[tuple[int, int, list[int], list[int]]]) -> list[bytes]:
+        return [
+            course(bytes((STOP,)) + bytes((colour,)) * p + bytes((STOP,)), d, left, right)
+            for colour, d, left, right in courses
+        ]
+
+    blank = bytes(width)
+    try:
+        rows = [blank] * 5 + fixed(_START)
+        for q in passes:
+            slots, d = q.slots, q.direction
+            if (
+                not slots
+                or d not in (RIGHT, LEFT, NONE)
+                or len(q.left) != N_OPTIONS
+                or len(q.right) != N_OPTIONS
+            ):
+                return None
+            band = _band(slots, lo, p)
+            if band is None:
+                return None
+            rows.append(course(band, d, q.left, q.right))
+        rows += fixed(_end_courses(image.carriage_left_at_end))
+    except (TypeError, ValueError, AttributeError):  # a value that is no byte, or no dict
+        return None
+    width_row = bytearray(width)
+    width_row[SLOT_X - 5 : SLOT_X + p + 5] = bytes((1,)) * (p + 10)
+    width_row[POSITION_X] = pos % 100
+    above = bytearray(width)
+    above[POSITION_X] = pos // 100
+    rows += [blank, bytes(width_row), bytes(above)] + [blank] * (TOP - 6)
+    assert len(rows) == height
+    return _header(width, height) + _runs(rows)
+
+
+def _runs(rows: list[bytes]) -> bytes:
+    """`_rle` of the raster whose rows (bottom first) are `rows`."""
+    done: dict[bytes, bytes] = {}
+    out = []
+    for row in rows:
+        runs = done.get(row)
+        if runs is None:
+            pairs = bytearray()
+            end = len(row)
+            for m in _RUN.finditer(row):
+                start, stop = m.span()
+                colour, length = row[start], stop - start
+                while length > MAX_RUN:
+                    pairs += bytes((colour, MAX_RUN))
+                    length -= MAX_RUN
+                pairs += bytes((colour, length))
+                if length == MAX_RUN and stop != end:
+                    pairs += bytes((colour, 0))  # the converter's quirk (see `_rle`)
+            runs = done[row] = bytes(pairs)
+        out.append(runs)
+    return b"".join(out)
 
 
 # --- reading --------------------------------------------------------------------------------
@@ -450,12 +615,16 @@ def _geometry(raster: np.ndarray) -> tuple[int, int]:
 
 def _first(mask: np.ndarray) -> int | None:
     """The first row index where `mask` holds, or None."""
+    import numpy as np
+
     hits = np.flatnonzero(mask)
     return int(hits[0]) if hits.size else None
 
 
 def _read_passes(raster: np.ndarray, p: int, n: int, min_slot: int) -> list[DatPass]:
     """The pass rows, vectorised over rows: stop marks, slots between them, option bars."""
+    import numpy as np
+
     body = raster[PASS_Y : PASS_Y + n]
     band = body[:, SLOT_X - 1 : SLOT_X + p + 1].astype(np.int64)
     stop = band == STOP
@@ -498,7 +667,8 @@ def _read_passes(raster: np.ndarray, p: int, n: int, min_slot: int) -> list[DatP
     code_list = band[ri, ci].tolist()
     bounds = np.searchsorted(ri, np.arange(n + 1)).tolist()
 
-    direction = body[:, _L_VALUE_X[0] + 1].astype(np.int64)
+    l_x = _l_value_x()
+    direction = body[:, l_x[0] + 1].astype(np.int64)
     r_x = _r_value_x(p)
     if (i := _first(direction != body[:, r_x[0] - 1])) is not None:
         raise DatError(
@@ -514,7 +684,7 @@ def _read_passes(raster: np.ndarray, p: int, n: int, min_slot: int) -> list[DatP
             y=PASS_Y + i,
             x=49,
         )
-    lefts = body[:, _L_VALUE_X].tolist()
+    lefts = body[:, l_x].tolist()
     rights = body[:, r_x].tolist()
     dirs = direction.tolist()
     return [
@@ -545,6 +715,8 @@ def decode(
     the container must also be exactly the converter's (so ``encode(decode(b)) == b``);
     `max_width` bounds the raster's width (`read_raster`).
     """
+    import numpy as np
+
     raster = read_raster(data, strict=strict, max_width=max_width)
     p, n = _geometry(raster)
     height = raster.shape[0]
@@ -591,6 +763,7 @@ def rows(data_or_image: bytes | DatImage) -> list[Row]:
     L1..L20 and R1..R20 values, and the colours from the left stop-mark column to the right one.
     Only the container and the raster size are checked, so two DATs can be compared row by row
     even when one does not follow the layout."""
+
     if isinstance(data_or_image, DatImage):
         raster = render(data_or_image)
     else:
@@ -599,8 +772,9 @@ def rows(data_or_image: bytes | DatImage) -> list[Row]:
     if width < 2 * SIDE + 1:
         raise DatError(f"DAT raster is {width} wide; the layout needs at least {2 * SIDE + 1}")
     p = width - 2 * SIDE
-    directions = raster[:, _L_VALUE_X[0] + 1].tolist()
-    lefts = raster[:, _L_VALUE_X].tolist()
+    l_x = _l_value_x()
+    directions = raster[:, l_x[0] + 1].tolist()
+    lefts = raster[:, l_x].tolist()
     rights = raster[:, _r_value_x(p)].tolist()
     bands = raster[:, SLOT_X - 1 : SLOT_X + p + 1].tolist()
     return [
