@@ -34,7 +34,10 @@ programs the converter accepts but no machine can knit; those and the one delibe
 difference (carrier 10 leading a pair) are listed at `DatWriteError` and `carrier_code`.
 
 The work is one pass over the ops with constant work per op (the active carriers, at most
-10, are checked per needle op); passes are objects, ops are not.
+10, are checked per needle op); passes are objects, ops are not. The writer reads each op as
+an `OpRecord` tuple, and a run of one-carrier knits, tucks and misses that extend the last
+pass, the bulk of a fabric, is taken inline in `_Writer.run` after one check of the pass and
+the writer's state; everything else goes through the converter's rules in full.
 """
 
 from __future__ import annotations
@@ -1047,7 +1050,7 @@ class _Writer:
                         p.op,
                     )
                 slots = {s: codes[0] if c == SPLIT_FB else codes[1] for s, c in slots.items()}
-            elif any(c >= _TERMINAL for c in slots.values()):
+            elif max(slots.values()) >= _TERMINAL:  # (every pass has a slot)
                 slots = {s: c % _TERMINAL for s, c in slots.items()}
             left = [0] * 20
             right = [0] * 20

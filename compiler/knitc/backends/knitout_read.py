@@ -66,8 +66,11 @@ line parser keeps going after a bad line, skipping its op. `knitout_diagnostics`
 them into `Diagnostics` for the compiler-style rendering of the CLI.
 
 Speed: one ``str.split`` per line, a dict dispatch on the opcode and caches for needles and
-carrier sets, no regular expression on the common path: a 100k-line file reads in well
-under a second.
+carrier sets, no regular expression on the common path; a line of a plain one-carrier
+knit/tuck/miss read before is one dict look-up (fabric repeats its lines). `knitout_to_dat`
+skips the ops and their spans altogether: the DAT writer takes the bare records, and a file
+with an error is read again with spans for the diagnostics. A 100k-line stockinette reads
+into a program in about 0.25 s, and converts to a DAT in under 0.1 s.
 """
 
 from __future__ import annotations
@@ -857,7 +860,7 @@ def knitout_to_dat(
     `read_knitout` and converts that, for the diagnostics, which need each op's span
     (`knitc k2dat`).
 
-    Faster than that route (about a third of the time on a 100k-line file): the lines become
+    Faster than that route (a fifth of the time on a 100k-line stockinette): the lines become
     bare records, without spans or comments, which the DAT writer takes as they are."""
     from knitc.backends.dat_format import DatError, encode
     from knitc.backends.dat_write import DatWriteError, records_to_dat
