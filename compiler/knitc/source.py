@@ -10,6 +10,7 @@ of a stdlib pattern whose body raised the error ("while expanding ...").
 from __future__ import annotations
 
 import bisect
+import re
 from dataclasses import dataclass, field
 
 
@@ -69,6 +70,9 @@ class Span:
 UNKNOWN_SPAN = Span("<unknown>", 1, 1, 1, 1)
 
 
+_NEWLINE = re.compile("\n")
+
+
 @dataclass(frozen=True)
 class SourceFile:
     """The text of one input, with a line index for span construction and rendering."""
@@ -78,11 +82,9 @@ class SourceFile:
     _line_starts: tuple[int, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        starts = [0]
-        for i, ch in enumerate(self.text):
-            if ch == "\n":
-                starts.append(i + 1)
-        object.__setattr__(self, "_line_starts", tuple(starts))
+        # (the regex scan runs in C: a character loop cost ~50 ms on a 2 MB Knitout file)
+        starts = (0, *(m.end() for m in _NEWLINE.finditer(self.text)))
+        object.__setattr__(self, "_line_starts", starts)
 
     def line_text(self, line: int) -> str:
         """The text of 1-based `line`, without its newline ('' past the end)."""
