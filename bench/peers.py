@@ -196,12 +196,16 @@ def knit_script_sheet(tmp: Path) -> dict[str, Any]:
             "knitc_python": knitc_python()}
 
 
+CMU_JS_DEFAULT = PEERS / "cmu" / "knitout-to-dat.js"
+"""Where bench/README.md puts the converter: used when KNITOUT_TO_DAT_JS is not set."""
+
+
 def cmu_k2dat(tmp: Path) -> dict[str, Any]:
     """CMU knitout-to-dat.js under node and `knitc k2dat`, each converting the same 100k-
     operation Knitout to DAT; whether the two DATs are byte-identical is recorded too."""
-    js = Path(os.environ.get("KNITOUT_TO_DAT_JS", ""))
+    js = Path(os.environ.get("KNITOUT_TO_DAT_JS", "") or CMU_JS_DEFAULT)
     node = shutil.which("node")
-    if not os.environ.get("KNITOUT_TO_DAT_JS"):
+    if not os.environ.get("KNITOUT_TO_DAT_JS") and not CMU_JS_DEFAULT.is_file():
         raise Unavailable(CMU_JS_HELP)
     if not js.is_file():
         raise Unavailable(f"KNITOUT_TO_DAT_JS={js} is not a file")
