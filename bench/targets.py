@@ -110,6 +110,7 @@ def judge(cases: dict[str, dict], peer: dict[str, Any], orig: dict[str, Any]) ->
 
 
 def run_targets(tmp: Path) -> dict[str, Any]:
+    tmp.mkdir(parents=True, exist_ok=True)
     cases = run_cases(tmp)
     print(f"targets: {cases}", file=sys.stderr)
     peer = peers.run_peers(tmp)
