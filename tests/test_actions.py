@@ -497,6 +497,24 @@ def test_runtime_mistakes_are_located_errors(body, code):
     assert "action `bad`" in e.message
 
 
+@pytest.mark.parametrize(
+    "body, code, shown",
+    [
+        ("main { knit(dir, needle + 0.5, carriers) }", "E723", "got f"),
+        ("main { knit(dir, needle + len(needle) - 2, carriers) }", "E303", "got a value"),
+        ("main { knit(dir, needle + needle[0], carriers) }", "E303", "index"),
+        ("main { for x in needle { let y = x }\n  knit(dir, needle, carriers) }", "E303", ""),
+    ],
+)
+def test_a_needle_is_a_value_not_a_list(body, code, shown):
+    # the machine's Needle is a named tuple, and the evaluators take tuples for lists: the
+    # action language must still see a needle as one value (`f2`, not `["f", 2]`)
+    r = compiled_with_errors(_user(body))
+    [e] = [d for d in r.diagnostics if d.is_error]
+    assert e.code == code, r.diagnostics.render()
+    assert shown in e.message and '["f"' not in e.message and "['f'" not in e.message
+
+
 def test_a_purl_on_a_full_gauge_tube_is_an_error_at_the_stdlib_line_and_the_use():
     src = "tube t { length: 4  width: 6 }\npattern t { use purl where courses(1) }\n"
     r = compiled_with_errors(src)

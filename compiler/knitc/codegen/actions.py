@@ -58,7 +58,6 @@ import numpy as np
 from knitc.codegen import casting as cast
 from knitc.codegen.bed import Pos, Unsupported
 from knitc.codegen.bed import needle as needle_of
-from knitc.codegen.machine import Needle
 from knitc.codegen.steps import Action, continues_in_place, empty_needle_number
 from knitc.diagnostics import Note
 from knitc.frontend import ast
@@ -76,6 +75,20 @@ from knitc.patterning.query import Coords, coords
 from knitc.source import UNKNOWN_SPAN, Span
 
 # ---- running (code generation) ----------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class ActionNeedle:
+    """A needle as the action language sees it: a host value with `bed` and `index` that
+    moves by whole needles (`needle + 1`). Not the machine's `Needle`, a named tuple: knitc's
+    evaluators take any tuple for a list, so a machine needle in an action would be
+    indexable, countable, and shown as `["f", 2]` in messages."""
+
+    bed: str
+    index: int
+
+    def __str__(self) -> str:
+        return f"{self.bed}{self.index}"
 
 
 @dataclass
@@ -208,13 +221,13 @@ class _ActionInterp(Interpreter):
     def _Attr(self, e: ast.Attr) -> Value:
         obj = self.eval(e.obj)
         name = e.name.name
-        if isinstance(obj, Needle) and name in ("bed", "index"):
+        if isinstance(obj, ActionNeedle) and name in ("bed", "index"):
             return Word("front" if obj.bed == "f" else "back") if name == "bed" else obj.index
         if isinstance(obj, StitchInfo) and name in StitchInfo.__dataclass_fields__:
             return getattr(obj, name)
         what = (
             "a needle has `bed` and `index`"
-            if isinstance(obj, Needle)
+            if isinstance(obj, ActionNeedle)
             else "`stitch` has " + ", ".join(f"`{f}`" for f in StitchInfo.__dataclass_fields__)
             if isinstance(obj, StitchInfo)
             else f"{type_name(obj)} has no fields"
@@ -225,7 +238,7 @@ class _ActionInterp(Interpreter):
         if e.op not in ("+", "-"):
             return super()._Binary(e)
         a, b = self.eval(e.left), self.eval(e.right)
-        if isinstance(a, Needle) or isinstance(b, Needle):
+        if isinstance(a, ActionNeedle) or isinstance(b, ActionNeedle):
             return _needle_arith(e, a, b)
         if isinstance(a, Profile) or isinstance(b, Profile):
             return self._profile_arith(e, a, b)
@@ -235,11 +248,11 @@ class _ActionInterp(Interpreter):
 
 
 def _needle_arith(e: ast.Binary, a: Value, b: Value) -> Value:
-    if isinstance(a, Needle) and isinstance(b, Needle) and e.op == "-":
+    if isinstance(a, ActionNeedle) and isinstance(b, ActionNeedle) and e.op == "-":
         if a.bed != b.bed:
             raise EvalError("E723", f"{a} and {b} are on different beds", e.span)
         return a.index - b.index
-    k = whole(b) if isinstance(a, Needle) else whole(a) if e.op == "+" else None
+    k = whole(b) if isinstance(a, ActionNeedle) else whole(a) if e.op == "+" else None
     if k is None:
         raise EvalError(
             "E723",
@@ -247,9 +260,9 @@ def _needle_arith(e: ast.Binary, a: Value, b: Value) -> Value:
             e.span,
             "write `needle + 1` (one needle to the right) or `needle - 1`",
         )
-    n = a if isinstance(a, Needle) else b
-    assert isinstance(n, Needle)
-    return Needle(n.bed, n.index + (k if e.op == "+" else -k))
+    n = a if isinstance(a, ActionNeedle) else b
+    assert isinstance(n, ActionNeedle)
+    return ActionNeedle(n.bed, n.index + (k if e.op == "+" else -k))
 
 
 # ---- one stitch's run -------------------------------------------------------------------------
@@ -303,9 +316,9 @@ class _Stitch:
             int(g.node[s]),
         )
         other = "b" if pos[0] == "f" else "f"
-        constants: dict[str, Any] = {  # Values and host objects (Needle, StitchInfo)
-            "needle": Needle(pos[0], pos[1]),
-            "opposite": Needle(other, pos[1]),
+        constants: dict[str, Any] = {  # Values and host objects (ActionNeedle, StitchInfo)
+            "needle": ActionNeedle(pos[0], pos[1]),
+            "opposite": ActionNeedle(other, pos[1]),
             "dir": d,
             "carriers": (ctx.carrier,),
             "position": int(st.visit[s] - st.first[course]),
@@ -445,7 +458,7 @@ class _Stitch:
     def _needle(self, v: object, default: Pos | None = None) -> Pos:
         if v is _UNSET and default is not None:
             return default
-        if not isinstance(v, Needle) or v.bed not in ("f", "b"):
+        if not isinstance(v, ActionNeedle) or v.bed not in ("f", "b"):
             raise EvalError(
                 "E723",
                 f"expected a needle, got {_show(v)}",
@@ -665,6 +678,6 @@ def _bed_name(p: Pos) -> str:
 def _show(v: object) -> str:
     if v is _UNSET:
         return "nothing"
-    if isinstance(v, Needle | StitchInfo) or v is None:
+    if isinstance(v, ActionNeedle | StitchInfo) or v is None:
         return "the stitch record" if isinstance(v, StitchInfo) else str(v)
     return show(v) if not isinstance(v, Word) else f"`{v.name}`"
