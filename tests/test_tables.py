@@ -114,3 +114,52 @@ def test_the_encoding_round_trips_lark_data() -> None:
     assert json.loads(text, object_hook=tables._decode) == data
     with pytest.raises(TypeError):
         tables._encode({"f": print})
+
+
+def test_a_relative_or_missing_home_is_never_the_working_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("KNITC_NO_CACHE", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", "relcache")  # relative: XDG says ignore it
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    (tmp_path / "home" / ".cache").mkdir(parents=True)
+    got = tables.table_file(grammar_text(), OPTIONS)
+    assert got is not None and got.startswith(str(tmp_path / "home" / ".cache" / "knitc"))
+    assert not (tmp_path / "relcache").exists()
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    monkeypatch.setattr(tables.os.path, "expanduser", lambda p: p)  # no HOME, no passwd
+    assert tables.table_file(grammar_text(), OPTIONS) is None
+    assert not (tmp_path / "~").exists()
+
+
+def test_a_symlinked_or_foreign_file_is_not_read(cache: Path, tmp_path: Path) -> None:
+    tables.load_lark(grammar_text(), OPTIONS, {})
+    (path,) = cache.glob("knit-lalr-*.json")
+    planted = tmp_path / "planted.json"
+    planted.write_text(path.read_text())
+    path.unlink()
+    path.symlink_to(planted)
+    with pytest.raises(OSError):
+        tables._load(str(path), {})
+    again = tables.load_lark(grammar_text(), OPTIONS, {})  # rebuilt, written over the link
+    assert again.parse("sheet s { length: 4, width: 4 }\n")
+    assert not path.is_symlink()
+
+
+def test_other_tables_and_left_temporaries_are_removed(cache: Path) -> None:
+    cache.mkdir(mode=0o700)
+    (cache / "knit-lalr-0123456789abcdef01234567.json").write_text("{}")
+    (cache / ".knit-lalr-killed").write_text("")
+    (cache / "other-tool.json").write_text("{}")
+    tables.load_lark(grammar_text(), OPTIONS, {})
+    names = sorted(p.name for p in cache.iterdir())
+    assert len(names) == 2 and "other-tool.json" in names
+    assert (
+        names[0].startswith("knit-lalr-") and names[0] != "knit-lalr-0123456789abcdef01234567.json"
+    )
+
+
+def test_writing_the_file_leaves_the_built_parser_whole(cache: Path) -> None:
+    built = tables.load_lark(grammar_text(), OPTIONS, {"COMMENT": lambda t: t})
+    assert "COMMENT" in built.options.lexer_callbacks

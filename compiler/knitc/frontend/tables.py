@@ -57,18 +57,33 @@ def _decode(obj: dict[str, Any]) -> Any:
     return obj
 
 
+def _mine(st: os.stat_result) -> bool:
+    return st.st_uid == os.getuid() and not st.st_mode & 0o077
+
+
 def _folder() -> str | None:
+    """The cache folder, made if its parent is there and the user's own; None (no file)
+    when the cache is off, the base folder is relative (XDG says to ignore it) or there is
+    no home to resolve, or the folder is not the user's alone."""
     if os.environ.get("KNITC_NO_CACHE"):
         return None
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    base = os.environ.get("XDG_CACHE_HOME") or ""
+    if not os.path.isabs(base):
+        home = os.path.expanduser("~")
+        if not os.path.isabs(home):  # no HOME and no passwd entry: never the cwd
+            return None
+        base = os.path.join(home, ".cache")
     folder = os.path.join(base, "knitc")
     try:
-        os.makedirs(folder, mode=0o700, exist_ok=True)
+        if not os.path.lexists(folder):
+            parent = os.stat(base)  # not made: a root run must not leave root's folders
+            if parent.st_uid != os.getuid():  # in another user's home (sudo keeps HOME)
+                return None
+            os.mkdir(folder, 0o700)
         st = os.stat(folder, follow_symlinks=False)
     except OSError:
         return None
-    mine = stat.S_ISDIR(st.st_mode) and st.st_uid == os.getuid() and not st.st_mode & 0o077
-    return folder if mine else None
+    return folder if stat.S_ISDIR(st.st_mode) and _mine(st) else None
 
 
 def table_file(grammar: str, options: dict[str, Any]) -> str | None:
@@ -91,9 +106,7 @@ def load_lark(
     path = table_file(grammar, options)
     if path is not None:
         try:
-            with open(path, encoding="utf-8") as f:
-                doc = json.load(f, object_hook=_decode)
-            return Lark._load_from_dict(doc["data"], doc["memo"], lexer_callbacks=callbacks)
+            return _load(path, callbacks)
         except Exception:  # missing, unreadable or not ours: build the tables below
             pass
     parser = Lark(grammar, **options, lexer_callbacks=callbacks)
@@ -102,10 +115,26 @@ def load_lark(
     return parser
 
 
+def _load(path: str, callbacks: dict[str, Callable[..., Any]]) -> Lark:
+    """The parser from the file at `path`, which must be a regular file of the user's own,
+    not reached through a symlink (the folder was checked; this closes the gap between that
+    check and the open)."""
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+    with os.fdopen(fd, encoding="utf-8") as f:
+        st = os.fstat(f.fileno())
+        if not stat.S_ISREG(st.st_mode) or not _mine(st):
+            raise OSError(f"{path} is not the user's own regular file")
+        doc = json.load(f, object_hook=_decode)
+    return Lark._load_from_dict(doc["data"], doc["memo"], lexer_callbacks=callbacks)
+
+
 def _write(path: str, parser: Lark) -> None:
-    """Write the tables atomically (a reader sees the old file or the whole new one)."""
+    """Write the tables atomically (a reader sees the old file or the whole new one), and
+    remove the files of other grammars or Lark versions (and temporary files a killed run
+    left), so the folder holds one set of tables."""
     data, memo = parser.memo_serialize([TerminalDef, Rule])
-    data["options"].pop("lexer_callbacks", None)
+    # (a copy: memo_serialize hands out the live parser's own options)
+    data = {**data, "options": {k: v for k, v in data["options"].items() if k != "lexer_callbacks"}}
     try:
         text = json.dumps({"data": _encode(data), "memo": _encode(memo)}, separators=(",", ":"))
         fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), prefix=".knit-lalr-")
@@ -120,3 +149,15 @@ def _write(path: str, parser: Lark) -> None:
             os.unlink(tmp)
         except OSError:
             pass
+        return
+    folder, name = os.path.split(path)
+    try:
+        stale = [
+            e
+            for e in os.listdir(folder)
+            if e != name and e.startswith(("knit-lalr-", ".knit-lalr-"))
+        ]
+        for e in stale:
+            os.unlink(os.path.join(folder, e))
+    except OSError:
+        pass
