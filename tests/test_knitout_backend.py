@@ -290,6 +290,19 @@ def test_the_fast_writer_writes_the_line_map(op_spans, sc, one):
     )
 
 
+def test_equal_ops_of_other_number_types_print_as_they_are():
+    # 1, 1.0 and True are one dict key: an unverified program's odd op must not lend its
+    # text to a later well-formed one (nor borrow it)
+    p = MachineProgram()
+    for n in (Needle("f", True), Needle("f", 1), Needle("f", 2.0), Needle("f", 2)):
+        p.emit(Op("knit", 1, n, None, (1,)))
+    p.emit(Op("knit", True, Needle("f", 3), None, (1,)))
+    p.emit(Op("knit", 1, Needle("f", 3), None, (1.0,)))
+    p.emit(Op("knit", 1, Needle("f", 3), None, (1,)))
+    body = write_knitout(p).splitlines()[-7:]
+    assert body == [str(op) for op in p.ops]
+
+
 # ---- the independent oracle ------------------------------------------------------------------
 
 

@@ -23,6 +23,7 @@ from knitc.codegen.machine import (
     aligned,
     estimate_passes,
     format_number,
+    op_problems,
     racking_for,
     to_json,
     verify,
@@ -496,3 +497,43 @@ def test_builder_output_is_well_formed_and_rack_never_redundant(steps):
     racks = [op.value for op in p if op.kind == "rack"]
     assert all(a != b for a, b in zip([0] + racks, racks))  # no rack repeats the racking
     assert p.stats()["passes"] <= sum(op.kind != "rack" for op in p)
+
+
+# ---- op_problems' fast paths against its full check ---------------------------------------
+
+_NEEDLE_VALUES = [
+    None,
+    Needle("f", 3),
+    Needle("bs", 2),
+    Needle("b", 540),
+    Needle("x", 1),
+    Needle("f", True),
+    Needle("f", 2.0),
+    Needle(["f"], 1),  # type: ignore[arg-type]
+    ("f", 3),
+    "f3",
+]
+
+
+@settings(max_examples=600, deadline=None)
+@given(
+    kind=st.sampled_from(["knit", "tuck", "miss", "split", "xfer", "drop", "in", "rack", "bad"]),
+    dir=st.sampled_from([-1, 0, 1, 2, True, 1.0]),
+    needle=st.sampled_from(_NEEDLE_VALUES),
+    needle2=st.sampled_from(_NEEDLE_VALUES),
+    carriers=st.sampled_from([(), (1,), (10,), (0,), (11,), (True,), (1, 1), (1, 2), (1, 2, 3)]),
+    value=st.sampled_from([None, 1, "x"]),
+    stitch=st.sampled_from([-2, -1, 0, 7, True, 1.5]),
+    phase=st.sampled_from(["", "action", "bogus", ["action"]]),
+    per_op=st.sampled_from([0, 1, 2]),
+    carrier_limit=st.booleans(),
+)
+def test_op_problems_fast_paths_agree_with_the_full_check(
+    kind, dir, needle, needle2, carriers, value, stitch, phase, per_op, carrier_limit
+):
+    from knitc.codegen.machine import _full_problems
+
+    op = Op(kind, dir, needle, needle2, carriers, value, stitch, None, phase)
+    m = Machine(max_carriers_per_op=per_op)
+    got = op_problems(op, m, carrier_limit=carrier_limit)
+    assert got == _full_problems(op, m, carrier_limit)

@@ -22,7 +22,7 @@ that converter.
 
 from __future__ import annotations
 
-from knitc.codegen.machine import CARRIER_KINDS, MachineProgram, Op
+from knitc.codegen.machine import CARRIER_KINDS, MachineProgram, Needle, Op
 
 MAGIC = ";!knitout-2"
 
@@ -99,10 +99,13 @@ def write_knitout(
                 op, source_comments=source_comments, one_carrier_per_line=one_carrier_per_line
             )
             continue
-        key = op[:6]  # kind, dir, needle, needle2, carriers, value
-        body = bodies.get(key)
-        if body is None:
-            body = bodies[key] = str(op)
+        if _exact(op):
+            key = op[:6]  # kind, dir, needle, needle2, carriers, value
+            body = bodies.get(key)
+            if body is None:
+                body = bodies[key] = str(op)
+        else:  # 1, 1.0 and True are one key but three texts: format such an op each time
+            body = str(op)
         span = op.span
         if source_comments and span is not None:
             tail = tails.get(id(span))
@@ -111,6 +114,19 @@ def write_knitout(
             body += tail
         out.append(body)
     return "\n".join(out) + "\n"
+
+
+def _exact(op: Op) -> bool:
+    """Whether every number of the op is an int, so that equal ops print alike (true of
+    every op code generation makes and a verified program holds)."""
+    n, m, cs = op.needle, op.needle2, op.carriers
+    return (
+        type(op.dir) is int
+        and type(n) is Needle
+        and type(n.index) is int
+        and (m is None or (type(m) is Needle and type(m.index) is int))
+        and (not cs or (len(cs) == 1 and type(cs[0]) is int))
+    )
 
 
 _NEEDLE_KINDS = frozenset({"knit", "tuck", "miss", "split", "xfer", "drop", "amiss"})
@@ -144,7 +160,6 @@ def read_knitout(text: str) -> MachineProgram:
     tools: header values other than Position are not read; comments other than `!source:`
     become comment ops; source comments are not turned back into spans). Raises ValueError
     on a line it cannot read."""
-    from knitc.codegen.machine import Needle
 
     prog = MachineProgram()
     for lineno, raw in enumerate(text.splitlines(), 1):

@@ -29,7 +29,11 @@ def needle(pos: Pos) -> Needle:
     """The machine needle of a bed position."""
     n = _NEEDLES.get(pos)
     if n is None:
-        n = _NEEDLES[pos] = Needle(pos[0], pos[1])
+        n = Needle(pos[0], pos[1])
+        if type(pos[1]) is int:  # ('f', 3.0) finds ('f', 3): only exact keys are kept
+            _NEEDLES[pos] = n
+    elif type(pos[1]) is not int:
+        n = Needle(pos[0], pos[1])
     return n
 
 
