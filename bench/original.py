@@ -27,15 +27,8 @@ except ImportError:  # imported as bench.original
 REPO = Path(__file__).resolve().parent.parent
 RUNNER = REPO / "bench" / "original-runner.js"
 KNITC = REPO / ".venv" / "bin" / "knitc"
-DESIGNS = (
-    "glove",
-    "sock",
-    "sock_flat",
-    "sweatpants",
-    "wristband",
-    "wristband2",
-    "split_unfolded_4x",
-)
+DESIGNS = tuple(sorted(p.stem for p in (REPO / "examples" / "knitskel").glob("*.knit")))
+"""The ported designs: every `.knit` in examples/knitskel/, each named as its `.skel`."""
 TARGETS = {"glove": 2.0, "sweatpants": 2.0, "wristband2": 2.0}
 """Required ratio original/knitc CPU; every other design only must not be slower (1.0)."""
 RUNS = 5
