@@ -103,8 +103,13 @@ class Bed:
         elif kind == "tuck":
             self.loops[pos] += 1
         self.carrier_at[carrier] = pos[1] + 0.5 * d
-        if stitch >= 0 and kind != "miss":
-            self.place(stitch, pos)
+        if stitch >= 0 and kind != "miss":  # `place`, inlined: this runs once per stitch
+            where = self.where
+            old = where.get(stitch)
+            if old is not None:
+                self.at[old].discard(stitch)
+            where[stitch] = pos
+            self.at[pos].add(stitch)
 
     def place(self, stitch: int, pos: Pos) -> None:
         old = self.where.get(stitch)
