@@ -57,12 +57,22 @@ class Bed:
     """Where each carrier in use was left (needle position, between needles)."""
     _span_of: list | None = None
     _node_of: list[int] | None = None
+    _course_of: list[int] | None = None
 
     def span(self, s: int):
         if self._span_of is None:  # every stitch's span, looked up once per op otherwise
             spans = self.g.spans
             self._span_of = [spans[i] for i in self.g.span.tolist()]
         return self._span_of[s] if s >= 0 else None
+
+    def stitch_courses(self) -> list[int] | None:
+        """The course of every stitch as a list, made once (as `stitch_nodes`)."""
+        if self._course_of is None:
+            course = getattr(self.g, "course", None)
+            if course is None:
+                return None
+            self._course_of = course.tolist()
+        return self._course_of
 
     def stitch_nodes(self) -> list[int] | None:
         """The node of every stitch as a list, made once (the transfer planner asks it of

@@ -292,10 +292,10 @@ class _Planner:
     # -- set-up -------------------------------------------------------------------------------
 
     def _course(self, s: int) -> int | None:
-        course = getattr(self.bed.g, "course", None)
+        course = self.bed.stitch_courses()
         if s < 0 or course is None or s >= len(course):
             return None
-        return int(course[s])
+        return course[s]
 
     def _piece(self, s: int) -> int | None:
         """The node of stitch s: the loops of one node on the bed form one cycle (a slice's
@@ -694,7 +694,9 @@ class _Planner:
         aim = [x if u is None or u.home else self.waypoint(u, ext) for x, u in items]
         pushed: set[int] = set()
         while True:
-            want = [toward(x, a) for (x, _u), a in zip(items, aim, strict=True)]
+            # (an item that stays, most of the bed, is where it wants to be: every item is
+            # within lo..hi, so toward(x, x) is x)
+            want = [x if a == x else toward(x, a) for (x, _u), a in zip(items, aim, strict=True)]
             first = list(want)
             self.relax(bed, items, want)
             more = set()
