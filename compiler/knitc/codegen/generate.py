@@ -732,6 +732,29 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
             incs[s] = ("fetch",)
     # what `_action` asks of every stitch, read from the arrays once per pass
     half = (g.course_gauge[g.course[stitches]] == 2).tolist()
+    numbers = gen.opts.numbers
+    if (
+        not incs
+        and bool((g.action[stitches] < 0).all())
+        and bool(np.isin(g.instr[stitches], _KNITTED).all())
+    ):
+        # A plain pass (no increase, no action, every stitch knitted here): what the
+        # general route below does for it, each stitch's one main step in order and the
+        # lead-out after the last, without an Action per stitch (most passes are plain)
+        for s, d, h in zip(ids, gen.dirs[chunk].tolist(), half, strict=True):
+            _knit(
+                gen,
+                ctx,
+                s,
+                d or 1,
+                gen.positions[s],
+                numbers.knit_half_gauge if h else numbers.knit,
+            )
+        if ids:
+            _lead_out(gen, ctx, chunk)
+        if gen.bed.rack:
+            gen.bed.set_rack(0)
+        return
     acts = [
         _action(gen, ctx, s, d or 1, incs.get(s), h, a, i)
         for s, d, h, a, i in zip(
@@ -750,6 +773,12 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
         run_actions(part)
     if gen.bed.rack:  # a user action's transfers may leave the machine racked
         gen.bed.set_rack(0)
+
+
+_KNITTED = np.array(
+    [i for i, name in enumerate(INSTRUCTIONS) if name == "K" or name[0] in "FXS"], np.int64
+)
+"""Instructions knitted as a plain knit in the action pass (`_action`'s first branch)."""
 
 
 def _knit(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, plain: int) -> None:
