@@ -60,3 +60,35 @@ def test_row_encoder_is_the_raster(name: str) -> None:
     image = to_dat(parse_knitout(example_knitout(name), "t.k"))
     rows = _encode_rows(image)
     assert rows is not None and rows == pack(render(image))  # (plain designs: never declined)
+
+
+# ---- the simulator's fast path ------------------------------------------------------------
+
+
+def _run(prog, fast: bool, **options):
+    from knitc.codegen.simulate import Simulator
+
+    sim = Simulator(prog, **options)
+    sim.fast_path = fast
+    findings = sim.run()
+    end = (dict(sim.loops), sim.active, sim.hook, sim.racking, sim.loop_at, sim.loop_prev)
+    return [(f.kind, f.severity, f.message, f.op, f.stitch) for f in findings], end
+
+
+SIM_OPTIONS = [{}, {"limit_per_kind": 1}, {"max_loops": 1, "max_float": 2}, {"placed": True}]
+
+
+@pytest.mark.parametrize("options", SIM_OPTIONS, ids=str)
+@pytest.mark.parametrize("path", FILES, ids=lambda p: str(p.relative_to(REPO / "tests")))
+def test_simulator_fast_path_is_the_general_handlers(path: Path, options: dict) -> None:
+    try:
+        prog = parse_knitout(path.read_text(encoding="utf-8", errors="replace"), "t.k")
+    except (KnitoutError, ValueError):
+        pytest.skip("not a readable program")
+    assert _run(prog, True, **options) == _run(prog, False, **options)
+
+
+@pytest.mark.parametrize("name", DESIGNS)
+def test_simulator_fast_path_on_the_examples(name: str) -> None:
+    prog = parse_knitout(example_knitout(name), "t.k")
+    assert _run(prog, True, verified=True) == _run(prog, False, verified=True)

@@ -165,6 +165,10 @@ class Simulator:
     bed's own.
     """
 
+    fast_path = True
+    """Whether `run` takes its fast path for plain knits and tucks (tests turn it off to
+    hold the fast path to the general handlers)."""
+
     def __init__(
         self,
         prog: MachineProgram,
@@ -302,7 +306,7 @@ class Simulator:
         in_pass_kinds = _PASS_KINDS
         verified, machine = self.verified, self.machine
         # the fast path's state (containers that are never replaced, thresholds)
-        fast = machine.max_carriers_per_op >= 1  # (else every op is an E811)
+        fast = self.fast_path and machine.max_carriers_per_op >= 1  # (else all are E811)
         lo = self.bed_lo
         hi = lo + machine.needles - 1
         max_loops, max_float, max_misses = self.max_loops, self.max_float, self.max_misses
