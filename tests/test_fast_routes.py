@@ -78,13 +78,21 @@ def _run(prog, fast: bool, **options):
 SIM_OPTIONS = [{}, {"limit_per_kind": 1}, {"max_loops": 1, "max_float": 2}, {"placed": True}]
 
 
-@pytest.mark.parametrize("options", SIM_OPTIONS, ids=str)
-@pytest.mark.parametrize("path", FILES, ids=lambda p: str(p.relative_to(REPO / "tests")))
-def test_simulator_fast_path_is_the_general_handlers(path: Path, options: dict) -> None:
+def _readable(path: Path) -> bool:
     try:
-        prog = parse_knitout(path.read_text(encoding="utf-8", errors="replace"), "t.k")
+        parse_knitout(path.read_text(encoding="utf-8", errors="replace"), "t.k")
     except (KnitoutError, ValueError):
-        pytest.skip("not a readable program")
+        return False  # (a hostile fixture: the reader refuses it, nothing to simulate)
+    return True
+
+
+PROGRAMS = [p for p in FILES if _readable(p)]
+
+
+@pytest.mark.parametrize("options", SIM_OPTIONS, ids=str)
+@pytest.mark.parametrize("path", PROGRAMS, ids=lambda p: str(p.relative_to(REPO / "tests")))
+def test_simulator_fast_path_is_the_general_handlers(path: Path, options: dict) -> None:
+    prog = parse_knitout(path.read_text(encoding="utf-8", errors="replace"), "t.k")
     assert _run(prog, True, **options) == _run(prog, False, **options)
 
 
