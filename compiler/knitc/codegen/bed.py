@@ -56,8 +56,7 @@ class Bed:
     carrier_at: dict[int, float] = field(default_factory=dict)
     """Where each carrier in use was left (needle position, between needles)."""
     _span_of: list | None = None
-    _node_of: list[int] | None = None
-    _course_of: list[int] | None = None
+    _per_stitch: dict[str, list[int]] = field(default_factory=dict)
 
     def span(self, s: int):
         if self._span_of is None:  # every stitch's span, looked up once per op otherwise
@@ -66,23 +65,24 @@ class Bed:
         return self._span_of[s] if s >= 0 else None
 
     def stitch_courses(self) -> list[int] | None:
-        """The course of every stitch as a list, made once (as `stitch_nodes`)."""
-        if self._course_of is None:
-            course = getattr(self.g, "course", None)
-            if course is None:
-                return None
-            self._course_of = course.tolist()
-        return self._course_of
+        """The course of every stitch as a list (`per_stitch`)."""
+        return self.per_stitch("course")
 
     def stitch_nodes(self) -> list[int] | None:
-        """The node of every stitch as a list, made once (the transfer planner asks it of
-        every loop on the bed, for every plan); None for a graph without nodes."""
-        if self._node_of is None:
-            node = getattr(self.g, "node", None)
-            if node is None:
+        """The node of every stitch as a list (`per_stitch`)."""
+        return self.per_stitch("node")
+
+    def per_stitch(self, name: str) -> list[int] | None:
+        """The graph's per-stitch array `name` as a Python list, made once: the transfer
+        planner asks it of every loop on the bed, for every plan, and a numpy scalar per
+        look-up is slow. None for a graph without that array."""
+        got = self._per_stitch.get(name)
+        if got is None:
+            array = getattr(self.g, name, None)
+            if array is None:
                 return None
-            self._node_of = node.tolist()
-        return self._node_of
+            got = self._per_stitch[name] = array.tolist()
+        return got
 
     def set_rack(self, r: int) -> None:
         if r != self.rack:
