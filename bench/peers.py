@@ -3,7 +3,7 @@
 - knit-script 0.2.1 (the peer DSL, PyPI) compiling a plain 50k-stitch stockinette sheet to
   Knitout, against `knitc sheet.knit -o sheet.k` on a sheet of the same size. Target: knitc at
   least 25x faster.
-- CMU knitout-to-dat.js (the reference Knitout -> DAT backend, under node) converting the
+- CMU's knitout-to-dat converter (the reference Knitout -> DAT backend, under node) converting the
   100k-operation stockinette of bench/run.py, against `knitc k2dat`. Target: at least 2x.
 
 Both sides are whole processes, start-up included, as a user runs them; CPU seconds come from
@@ -83,10 +83,9 @@ KS_COMPILE = ("import sys\n"
 """knit-script has no CLI (§1.1); this is the whole peer process. `knit_script_to_knitout` is
 not exported at package level (knit_script#17)."""
 
-CMU_JS_HELP = ("knitout-to-dat.js is on no PyPI release (knitout-to-dat-python 0.0.1-0.0.4 "
-               "ship neither sdist nor wheel with tests/resources/); set KNITOUT_TO_DAT_JS to "
-               "a copy, e.g. tests/resources/knitout-to-dat.js of "
-               "github.com/mhofmann-Khoury/knitout_to_dat_python")
+CMU_JS_HELP = ("CMU's knitout-to-dat converter is on no PyPI release; set KNITOUT_TO_DAT_JS to "
+               "a copy of it, never committed (bench/README.md says where to get one)")
+"""The converter is a file the user supplies, never one the bench names or fetches."""
 
 
 class Unavailable(Exception):
@@ -196,16 +195,13 @@ def knit_script_sheet(tmp: Path) -> dict[str, Any]:
             "knitc_python": knitc_python()}
 
 
-CMU_JS_DEFAULT = PEERS / "cmu" / "knitout-to-dat.js"
-"""Where bench/README.md puts the converter: used when KNITOUT_TO_DAT_JS is not set."""
-
-
 def cmu_k2dat(tmp: Path) -> dict[str, Any]:
-    """CMU knitout-to-dat.js under node and `knitc k2dat`, each converting the same 100k-
-    operation Knitout to DAT; whether the two DATs are byte-identical is recorded too."""
-    js = Path(os.environ.get("KNITOUT_TO_DAT_JS", "") or CMU_JS_DEFAULT)
+    """CMU's converter under node (the file named by KNITOUT_TO_DAT_JS) and `knitc k2dat`,
+    each converting the same 100k-operation Knitout to DAT; whether the two DATs are
+    byte-identical is recorded too."""
+    js = Path(os.environ.get("KNITOUT_TO_DAT_JS", ""))
     node = shutil.which("node")
-    if not os.environ.get("KNITOUT_TO_DAT_JS") and not CMU_JS_DEFAULT.is_file():
+    if not os.environ.get("KNITOUT_TO_DAT_JS"):
         raise Unavailable(CMU_JS_HELP)
     if not js.is_file():
         raise Unavailable(f"KNITOUT_TO_DAT_JS={js} is not a file")
@@ -221,7 +217,7 @@ def cmu_k2dat(tmp: Path) -> dict[str, Any]:
                              check=True).stdout.strip()
     return {**got, "ops": knitout_check(tmp / "k2dat.k")["ops"], "knitc_dat_bytes": len(ours),
             "peer_dat_bytes": len(theirs), "dat_identical": ours == theirs,
-            "peer": "CMU knitout-to-dat.js sha256:" + hashlib.sha256(js.read_bytes())
+            "peer": "CMU knitout-to-dat (node) sha256:" + hashlib.sha256(js.read_bytes())
             .hexdigest()[:12], "peer_node": version, "knitc_python": knitc_python()}
 
 

@@ -99,7 +99,7 @@ def judge(cases: dict[str, dict], peer: dict[str, Any], orig: dict[str, Any]) ->
     ]
     for key, what, limit in (
         ("knit_script_sheet_50k", "knit-script / knitc, 50k-stitch sheet", peers.KS_TARGET),
-        ("cmu_k2dat_100k", "CMU knitout-to-dat.js / knitc k2dat, 100k ops", peers.K2DAT_TARGET),
+        ("cmu_k2dat_100k", "CMU knitout-to-dat (node) / knitc k2dat, 100k ops", peers.K2DAT_TARGET),
     ):
         out.append(_target(what, peer.get(key, {}).get("ratio"), limit, "x", True))
     for name in original.DESIGNS:
