@@ -163,3 +163,32 @@ def test_other_tables_and_left_temporaries_are_removed(cache: Path) -> None:
 def test_writing_the_file_leaves_the_built_parser_whole(cache: Path) -> None:
     built = tables.load_lark(grammar_text(), OPTIONS, {"COMMENT": lambda t: t})
     assert "COMMENT" in built.options.lexer_callbacks
+
+
+def test_a_new_home_without_a_cache_folder_gets_one(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A fresh account (or CI machine) has no ~/.cache: the cache must still work there,
+    making ~/.cache and ~/.cache/knitc mode 0700 as XDG asks."""
+    monkeypatch.delenv("KNITC_NO_CACHE", raising=False)
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    home = tmp_path / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    got = tables.table_file(grammar_text(), OPTIONS)
+    assert got is not None and got.startswith(str(home / ".cache" / "knitc"))
+    for made in (home / ".cache", home / ".cache" / "knitc"):
+        assert oct(made.stat().st_mode & 0o777) == "0o700"
+
+
+def test_no_cache_folder_is_made_in_a_home_that_is_not_ours(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.delenv("KNITC_NO_CACHE", raising=False)
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    home = tmp_path / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    monkeypatch.setattr(tables.os, "getuid", lambda: os.stat(home).st_uid + 1)
+    assert tables.table_file(grammar_text(), OPTIONS) is None
+    assert not (home / ".cache").exists()

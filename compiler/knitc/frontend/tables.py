@@ -76,14 +76,21 @@ def _folder() -> str | None:
     folder = os.path.join(base, "knitc")
     try:
         if not os.path.lexists(folder):
-            parent = os.stat(base)  # not made: a root run must not leave root's folders
-            if parent.st_uid != os.getuid():  # in another user's home (sudo keeps HOME)
-                return None
-            os.mkdir(folder, 0o700)
+            if not os.path.lexists(base):  # a new account has no ~/.cache: XDG says to
+                _make_own(base)  # make it, mode 0700, as every other tool would
+            _make_own(folder)
         st = os.stat(folder, follow_symlinks=False)
     except OSError:
         return None
     return folder if stat.S_ISDIR(st.st_mode) and _mine(st) else None
+
+
+def _make_own(path: str) -> None:
+    """Make the folder `path` (mode 0700) if its parent is the user's own: a root run must
+    not leave root's folders in another user's home (sudo keeps HOME)."""
+    if os.stat(os.path.dirname(path)).st_uid != os.getuid():
+        raise OSError(f"{os.path.dirname(path)} is not the user's own")
+    os.mkdir(path, 0o700)
 
 
 def table_file(grammar: str, options: dict[str, Any]) -> str | None:
