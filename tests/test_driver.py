@@ -95,3 +95,46 @@ def test_the_facade_is_the_pipeline_and_imports_lazily():
     probe = "import sys, knitc; print('numpy' in sys.modules, 'lark' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
     assert out.stdout.split() == ["False", "False"]
+
+
+def test_ir_verifiers_run_when_asked_and_the_output_check_always(monkeypatch):
+    """A designer's compile skips the IR verifiers (they check knitc, and cost a tenth to a
+    quarter of a compile); `verify=True`, `--verify-each` or KNITC_VERIFY=1 runs them. The
+    machine stage's check of the output runs either way."""
+    seen: list[str] = []
+
+    def spy(i: int):
+        def verify(r):
+            seen.append(STAGES[i].name)
+            return STAGES[i].verify(r)
+
+        return verify
+
+    spied = tuple(
+        driver.Stage(s.name, s.run, spy(i) if s.verify else None, s.dump)
+        for i, s in enumerate(STAGES)
+    )
+    monkeypatch.setattr(driver, "STAGES", spied)
+    monkeypatch.delenv(driver.VERIFY_ENV)
+    compile_source(TUBE, "t.knit", until="machine")
+    assert seen == ["machine"]
+    seen.clear()
+    compile_source(TUBE, "t.knit", until="machine", verify=True)
+    assert seen == [s.name for s in STAGES if s.verify]
+    seen.clear()
+    monkeypatch.setenv(driver.VERIFY_ENV, "1")
+    compile_source(TUBE, "t.knit", until="machine")
+    assert seen == [s.name for s in STAGES if s.verify]
+    seen.clear()
+    compile_source(TUBE, "t.knit", until="machine", verify=False)
+    assert seen == ["machine"]
+
+
+def test_cli_verify_each(tmp_path, monkeypatch):
+    monkeypatch.delenv(driver.VERIFY_ENV)
+    bad = driver.Stage("trace", STAGES[3].run, lambda r: ["stitch 0 visited twice"], STAGES[3].dump)
+    monkeypatch.setattr(driver, "STAGES", STAGES[:3] + (bad,) + STAGES[4:])
+    f = tmp_path / "t.knit"
+    f.write_text(TUBE)
+    assert main(["check", str(f)]) == 0
+    assert main(["check", "--verify-each", str(f)]) == 3

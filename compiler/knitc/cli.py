@@ -76,6 +76,16 @@ def _common(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _verify_each(p: argparse.ArgumentParser) -> None:
+    """The option of the commands that run the pipeline to its end (compile, check)."""
+    p.add_argument(
+        "--verify-each",
+        action="store_true",
+        help="run every IR's verifier after its stage, a check of knitc itself "
+        "(KNITC_VERIFY=1 does the same; the tests and fuzzers always do)",
+    )
+
+
 def _positive_int(text: str) -> int:
     """An argparse type: a whole number above 0 (a mistake is a usage error, exit 2)."""
     try:
@@ -169,6 +179,7 @@ def _main_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"knitc {__version__}")
     _common(p)
     _reading(p)
+    _verify_each(p)
     return p
 
 
@@ -181,6 +192,7 @@ def _check_parser() -> argparse.ArgumentParser:
     p.add_argument("file", metavar="FILE")
     _common(p)
     _reading(p)
+    _verify_each(p)
     return p
 
 
@@ -425,6 +437,7 @@ def _cmd_compile(args: argparse.Namespace) -> int:
             on_stage=on_stage,
             include=args.include,
             max_stitches=args.max_stitches,
+            verify=args.verify_each or None,
         )
     if any(d.code == "E408" for d in result.diagnostics):  # a command-line mistake
         _report(result.diagnostics, args.quiet)
@@ -599,6 +612,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
         until=STAGES[-1].name,
         include=args.include,
         max_stitches=args.max_stitches,
+        verify=args.verify_each or None,
     )
     _report(result.diagnostics, args.quiet)
     if args.time_passes:

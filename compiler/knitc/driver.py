@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -337,6 +338,22 @@ def stage(name: str) -> Stage:
         ) from None
 
 
+VERIFY_ENV = "KNITC_VERIFY"
+"""Set to 1 to run every IR verifier between stages (`--verify-each` does the same for one
+run). The test suite and the fuzzers set it."""
+
+
+def verifying() -> bool:
+    """Whether the IR verifiers run between stages. They re-derive each IR's invariants from
+    scratch, which costs a tenth to a quarter of a compile (issue 16), and they find bugs in
+    knitc, not in designs: so like LLVM's `-verify-each` they are the developers' check,
+    on in the tests and the fuzzers and off for a designer's compile. What a designer's
+    compile never skips is the check of its output: every machine op is validated
+    (`machine.verify`) and the program simulated, and the machine stage's verifier reads
+    that result, so it always runs."""
+    return os.environ.get(VERIFY_ENV, "") not in ("", "0")
+
+
 def _verify(name: str, problems: list[str]) -> None:
     """The one way a verifier runs between stages."""
     if problems:
@@ -347,11 +364,16 @@ def _verify(name: str, problems: list[str]) -> None:
 
 
 def resume(
-    result: Result, until: str = "machine", on_stage: Callable[[str], None] | None = None
+    result: Result,
+    until: str = "machine",
+    on_stage: Callable[[str], None] | None = None,
+    verify: bool | None = None,
 ) -> Result:
     """Continue `result` through stage `until` (an IR stage or a target), reusing the IRs it
     already holds. Stops early after a stage that reported errors. `on_stage` is told the
-    name of each stage as it starts (a progress display)."""
+    name of each stage as it starts (a progress display). `verify` runs every IR verifier
+    after its stage (None: as `verifying()` says; the machine stage's always runs)."""
+    every = verifying() if verify is None else verify
     names = [s.name for s in STAGES]
     plan = STAGES[: names.index(until) + 1] if until in names else STAGES + (stage(until),)
     with reading_below(ReadRoots.for_design(result.path, result.include)):
@@ -362,7 +384,7 @@ def resume(
                 on_stage(step.name)
             start = time.perf_counter()
             ok = step.run(result)
-            if ok and step.verify is not None:
+            if ok and step.verify is not None and (every or step.name == "machine"):
                 _verify(step.name, step.verify(result))
             result.timings.append((step.name, time.perf_counter() - start))
             if not ok:
@@ -390,9 +412,10 @@ def compile_source(
     on_stage: Callable[[str], None] | None = None,
     include: list[str] | tuple[str, ...] = (),
     max_stitches: int = MAX_STITCHES,
+    verify: bool | None = None,
 ) -> Result:
-    """Run the pipeline on `text` up to and including stage `until` (`on_stage`: see
-    `resume`). Imports and images may read below the folder of `path` and the `include`
+    """Run the pipeline on `text` up to and including stage `until` (`on_stage`, `verify`:
+    see `resume`). Imports and images may read below the folder of `path` and the `include`
     folders only; `max_stitches` is the stitch budget (E512)."""
     from knitc.frontend.resolve import parse_define
 
@@ -409,7 +432,7 @@ def compile_source(
         got = parse_define(d, result.diagnostics)
         if got is not None:
             result.defines[got[0]] = got[1]
-    return resume(result, until, on_stage)
+    return resume(result, until, on_stage, verify)
 
 
 def compile_file(path: str, **kw: Any) -> Result:

@@ -31,6 +31,9 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
+os.environ["KNITC_VERIFY"] = "1"  # every IR verifier between stages: a fuzzed design that
+# breaks an IR's invariants is a bug even when the output happens to be legal (driver.verifying)
+
 FUZZ_MAX_STITCHES = 20_000
 """The stitch budget of fuzzed compiles (`--max-stitches`): a legal design may be as large
 as the fuzzer likes, but a large one is slow, not wrong, and would be reported as a hang.
