@@ -169,6 +169,11 @@ def keeps_loop(gen, s: int) -> bool:
     return kid >= 0 and int(gen.g.action[kid]) == a
 
 
+def splits_by_side(acts: list[Action]) -> bool:
+    """Whether a pass with these actions runs as one sub-pass per bed (`prepare_pass`)."""
+    return any(isinstance(a, UserAction) and a.program and a.program.split_by_side for a in acts)
+
+
 def prepare_pass(gen, acts: list[Action]) -> list[list[Action]]:
     """The sub-passes a pass's actions run as (each runs pre, main, post in turn): one, or
     with a `split_by_side` action in the pass, one per run of stitches on the same bed.
@@ -177,7 +182,7 @@ def prepare_pass(gen, acts: list[Action]) -> list[list[Action]]:
     for a in acts:
         if int(g.action[a.stitch]) >= 0 and not isinstance(a, UserAction):
             _warn_increase(gen, a.stitch)
-    if not any(isinstance(a, UserAction) and a.program and a.program.split_by_side for a in acts):
+    if not splits_by_side(acts):
         return [acts]
     parts: list[list[Action]] = []
     for a in acts:

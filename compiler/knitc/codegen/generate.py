@@ -755,18 +755,37 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
         if gen.bed.rack:
             gen.bed.set_rack(0)
         return
-    acts = [
-        _action(gen, ctx, s, d or 1, incs.get(s), h, a, i)
-        for s, d, h, a, i in zip(
-            ids,
-            gen.dirs[chunk].tolist(),
-            half,
-            g.action[stitches].tolist(),
-            g.instr[stitches].tolist(),
-            strict=True,
-        )
+    # A pass with some actions is still mostly plain knits: those stitches are kept as
+    # (stitch, direction, needle, number), not as an Action each, and knitted in their
+    # place among the main steps (they have no pre or post steps, so the other stitches'
+    # steps run in the same order as if they had an empty Action each).
+    items: list[Action | tuple[int, int, Pos, int]] = []
+    for s, d, h, a, i in zip(
+        ids,
+        gen.dirs[chunk].tolist(),
+        half,
+        g.action[stitches].tolist(),
+        g.instr[stitches].tolist(),
+        strict=True,
+    ):
+        if a < 0 and i in _KNITTED_SET and s not in incs:
+            items.append(
+                (s, d or 1, gen.positions[s], numbers.knit_half_gauge if h else numbers.knit)
+            )
+        else:
+            items.append(_action(gen, ctx, s, d or 1, incs.get(s), h, a, i))
+    acts = [a for a in items if isinstance(a, Action)]
+    if not actions.splits_by_side(acts):
+        actions.prepare_pass(gen, acts)  # (one sub-pass; its warnings)
+        _run_mixed(gen, ctx, items, acts, chunk)
+        if gen.bed.rack:  # a user action's transfers may leave the machine racked
+            gen.bed.set_rack(0)
+        return
+    acts = [  # per bed: every stitch an Action, so the parts split where the beds change
+        a if isinstance(a, Action) else Action(a[0], main=[partial(_knit, gen, ctx, *a)])
+        for a in items
     ]
-    parts = actions.prepare_pass(gen, acts)  # one, or per bed (`split_by_side`)
+    parts = actions.prepare_pass(gen, acts)  # one per run of stitches on the same bed
     if parts and parts[-1]:
         parts[-1][-1].main.append(lambda: _lead_out(gen, ctx, chunk))
     for part in parts:
@@ -779,6 +798,36 @@ _KNITTED = np.array(
     [i for i, name in enumerate(INSTRUCTIONS) if name == "K" or name[0] in "FXS"], np.int64
 )
 """Instructions knitted as a plain knit in the action pass (`_action`'s first branch)."""
+_KNITTED_SET = frozenset(_KNITTED.tolist())
+
+
+def _run_mixed(
+    gen: _Gen,
+    ctx: cast.Ctx,
+    items: list[Action | tuple[int, int, Pos, int]],
+    acts: list[Action],
+    chunk: np.ndarray,
+) -> None:
+    """`run_actions` of one sub-pass whose plain knits are `items` tuples (`_action_pass`),
+    then the lead-out after the last main step."""
+    lists = [a.pre for a in acts]
+    for k in range(max((len(fs) for fs in lists), default=0)):
+        for fs in lists:
+            if k < len(fs):
+                fs[k]()
+    for it in items:
+        if isinstance(it, Action):
+            for f in it.main:
+                f()
+        else:
+            _knit(gen, ctx, *it)
+    if items:
+        _lead_out(gen, ctx, chunk)
+    lists = [a.post for a in acts]
+    for k in range(max((len(fs) for fs in lists), default=0)):
+        for fs in lists:
+            if k < len(fs):
+                fs[k]()
 
 
 def _knit(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, plain: int) -> None:
