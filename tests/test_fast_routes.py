@@ -1,8 +1,10 @@
 """The fast routes of `knitc k2dat` held to the general ones they short-cut, on every Knitout
 file of the test suite and the examples' own: `knitout_to_dat` (bare records straight to a
 DAT) against `parse_knitout` + `to_dat` + `encode`, and the row encoder against the numpy
-raster (`pack(render())`). A fast route may decline (None: the caller takes the general
-one), never differ."""
+raster (`pack(render())`); the simulator's fast path against its general handlers; and code
+generation's action-pass short cuts (`generate.FAST_PASSES`) against every stitch as an
+Action, op for op. A fast route may decline (None: the caller takes the general one), never
+differ."""
 
 from __future__ import annotations
 
@@ -15,7 +17,8 @@ from knitc.backends.dat_format import DatError, _encode_rows, encode, pack, rend
 from knitc.backends.dat_write import DatWriteError, to_dat
 from knitc.backends.knitout import write_knitout
 from knitc.backends.knitout_read import KnitoutError, knitout_to_dat, parse_knitout
-from knitc.driver import compile_file
+from knitc.driver import compile_file, compile_source
+from test_stdlib_patterns import CASES, NO_PURL, SHAPES
 
 REPO = Path(__file__).resolve().parent.parent
 FILES = sorted(p for p in (REPO / "tests").rglob("*.k") if "fuzz" not in p.parts)
@@ -100,3 +103,69 @@ def test_simulator_fast_path_is_the_general_handlers(path: Path, options: dict) 
 def test_simulator_fast_path_on_the_examples(name: str) -> None:
     prog = parse_knitout(example_knitout(name), "t.k")
     assert _run(prog, True, verified=True) == _run(prog, False, verified=True)
+
+
+# ---- code generation: the action pass's short cuts against its general route ---------------
+
+LACE = """import std.stitches (cable, eyelets)
+sheet s { length: 30  width: 40 }
+pattern s {
+  apply eyelets() where wales(0.05:0.5)
+  apply cable(2, 8) where wales(0.5:0.95)
+}
+"""
+ACTIONS = """action rev { split_by_side: true
+  pre { xfer(needle, opposite) }
+  main { knit(dir, opposite, carriers) }
+  post { xfer(opposite, needle) }
+}
+action lean {
+  pre { xfer(needle, opposite) }
+  main { miss(dir, needle, carriers)  knit(dir, opposite, carriers) }
+  post { xfer(opposite, needle) }
+}
+tube t { length: 8  width: [0: 4, 1: 8]  gauge: half }
+sheet s { length: 6  width: 6 }
+t.top -> s.bottom
+pattern t { use rev where courses(1:end) }
+pattern s { use lean where select(1:2:end, 1) }
+"""
+CODEGEN = [f"examples/{n}.knit" for n in ("tube", "sheet", "sock", "sweater", "glove")] + [
+    f"examples/knitskel/{n}.knit" for n in ("glove", "sweatpants", "wristband2", "sock_flat")
+]
+
+
+def _ops(text: str, path: str, fast: bool, monkeypatch: pytest.MonkeyPatch) -> list:
+    from knitc.codegen import generate
+
+    monkeypatch.setattr(generate, "FAST_PASSES", fast)
+    r = compile_source(text, path, until="machine")
+    assert r.program is not None and not r.diagnostics.has_errors, r.diagnostics.render()
+    return list(r.program.ops)
+
+
+def _same_ops(text: str, path: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    fast, general = _ops(text, path, True, monkeypatch), _ops(text, path, False, monkeypatch)
+    assert len(fast) == len(general)
+    for i, (a, b) in enumerate(zip(fast, general, strict=True)):
+        assert a == b and a.span == b.span, f"op {i}: {a} != {b}"
+
+
+@pytest.mark.parametrize("name", CODEGEN)
+def test_action_pass_short_cuts_on_the_examples(name: str, monkeypatch) -> None:
+    path = REPO / name
+    _same_ops(path.read_text(encoding="utf-8"), str(path), monkeypatch)
+
+
+@pytest.mark.parametrize("text", [LACE, ACTIONS], ids=["lace", "actions"])
+def test_action_pass_short_cuts_with_actions(text: str, monkeypatch) -> None:
+    _same_ops(text, "t.knit", monkeypatch)
+
+
+@pytest.mark.parametrize("module, name, shape", CASES)
+def test_action_pass_short_cuts_on_every_stdlib_pattern(module, name, shape, monkeypatch):
+    call = NO_PURL[module][name] if shape == "full-gauge tube" else f"{name}()"
+    src = (
+        f"import {module} ({name})\n" + SHAPES[shape].format() + f"\npattern s {{ apply {call} }}\n"
+    )
+    _same_ops(src, "t.knit", monkeypatch)

@@ -428,22 +428,28 @@ def _shaping(gen: _Gen, sub: np.ndarray) -> dict[int, int]:
     a child of a later slice); returns parent -> the child that receives its loop."""
     g, bed = gen.g, gen.bed
     ids = gen.t.stitch[sub]
-    in_sub = set(int(s) for s in ids)
+    in_sub = set(ids.tolist())
     primary: dict[int, int] = {}
     moves = []
     parents = np.unique(g.wale_prev[ids])
     parents = parents[parents >= 0]
-    for p, row in zip(parents.tolist(), g.wale_next[parents].tolist(), strict=True):
-        if p not in bed.where:
+    where, positions = bed.where, gen.positions
+    for p, (k0, k1) in zip(parents.tolist(), g.wale_next[parents].tolist(), strict=True):
+        here = where.get(p)
+        if here is None:
             continue
-        kids = [k for k in row if k in in_sub]
-        if not kids:
-            continue
-        here = bed.where[p]
-        child = next((k for k in kids if gen.pos(k) == here), kids[0])
+        if k1 < 0 or k1 not in in_sub:  # (-1 is never in the sub-pass)
+            if k0 not in in_sub:
+                continue
+            child = k0
+        elif k0 in in_sub:  # two children here: the one on the loop's needle, else the first
+            child = k1 if positions[k0] != here and positions[k1] == here else k0
+        else:
+            child = k1
         primary[p] = child
-        if here != gen.pos(child) and not (here[1] == gen.pos(child)[1] and _stays(gen, p)):
-            moves.append((p, here, gen.pos(child)))
+        to = positions[child]
+        if here != to and not (here[1] == to[1] and _stays(gen, p)):
+            moves.append((p, here, to))
     if moves:
         _park(gen, moves, gen.pos(int(ids[0]))[1])
         bed.prog.stitch_number(gen.opts.numbers.transfer)
@@ -721,6 +727,13 @@ def _precast_cover(gen: _Gen, node: int) -> set[Pos]:
 # ---- action pass ------------------------------------------------------------------------------
 
 
+FAST_PASSES = True
+"""Whether `_action_pass` takes its short cuts: a plain pass knitted in one `Bed.knit_run`,
+and the plain knits of a mixed pass knitted in place without an Action each. Off, every
+stitch of every pass is an Action run by `run_actions`: the general route, which
+tests/test_fast_routes.py holds the short cuts to (the same ops, op for op)."""
+
+
 def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int, int]) -> None:
     incs = _increases(gen, chunk, primary)
     g = gen.g
@@ -734,22 +747,30 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
     half = (g.course_gauge[g.course[stitches]] == 2).tolist()
     numbers = gen.opts.numbers
     if (
-        not incs
+        FAST_PASSES
+        and not incs
         and bool((g.action[stitches] < 0).all())
         and bool(np.isin(g.instr[stitches], _KNITTED).all())
     ):
         # A plain pass (no increase, no action, every stitch knitted here): what the
         # general route below does for it, each stitch's one main step in order and the
         # lead-out after the last, without an Action per stitch (most passes are plain)
-        for s, d, h in zip(ids, gen.dirs[chunk].tolist(), half, strict=True):
-            _knit(
-                gen,
-                ctx,
-                s,
-                d or 1,
-                gen.positions[s],
-                numbers.knit_half_gauge if h else numbers.knit,
-            )
+        positions, knit, knit_half = gen.positions, numbers.knit, numbers.knit_half_gauge
+        first = (g.wale_prev[stitches, 0] < 0).tolist()  # (`empty_needle_number`)
+        cast_on = numbers.cast_on
+        gen.bed.knit_run(
+            (
+                (
+                    s,
+                    d or 1,
+                    positions[s],
+                    knit_half if h else knit,
+                    cast_on if f else (knit_half if h else knit),
+                )
+                for s, d, h, f in zip(ids, gen.dirs[chunk].tolist(), half, first, strict=True)
+            ),
+            ctx.carrier,
+        )
         if ids:
             _lead_out(gen, ctx, chunk)
         if gen.bed.rack:
@@ -775,7 +796,7 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
         else:
             items.append(_action(gen, ctx, s, d or 1, incs.get(s), h, a, i))
     acts = [a for a in items if isinstance(a, Action)]
-    if not actions.splits_by_side(acts):
+    if FAST_PASSES and not actions.splits_by_side(acts):
         actions.prepare_pass(gen, acts)  # (one sub-pass; its warnings)
         _run_mixed(gen, ctx, items, acts, chunk)
         if gen.bed.rack:  # a user action's transfers may leave the machine racked
