@@ -475,3 +475,28 @@ def test_an_output_through_a_symlink_to_the_input_is_refused(capsys, write, tmp_
     code, _, err = run(capsys, path, "-o", str(tmp_path / "out.k"))
     assert code == 1 and "error[E002]" in err and "is the input file" in err
     assert (tmp_path / "f.knit").read_text() == GOOD
+
+
+def test_gc_thresholds_batch_only_for_the_process_command_line(tmp_path):
+    """A one-shot `knitc` process collects only young cycles (its objects live to its end);
+    `main([...])` in a caller's process, and `knitc lsp`, keep the server's thresholds."""
+    import gc
+
+    from knitc import cli
+
+    f = tmp_path / "t.knit"
+    f.write_text("tube t { length: 2, width: 4 }\n")
+    code = (
+        f"import gc, sys\nfrom knitc import cli\nsys.argv = ['knitc', 'check', {str(f)!r}]\n"
+        "cli.main()\nprint(gc.get_threshold())\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout
+    assert out.strip() == str(cli.BATCH_GC_THRESHOLDS)
+    before = gc.get_threshold()
+    try:
+        assert cli.main(["check", str(f)]) == 0
+        assert gc.get_threshold() == cli.GC_THRESHOLDS
+    finally:
+        gc.set_threshold(*before)
