@@ -62,6 +62,7 @@ from __future__ import annotations
 import weakref
 from collections import defaultdict
 from dataclasses import dataclass, field
+from operator import itemgetter
 from typing import Any, cast
 
 from knitc.codegen.bed import BEDS, SLIDERS, Bed, Pos, Unsupported
@@ -233,6 +234,9 @@ def _windings(cycle: list[tuple[Pos, Pos]], fixed: list[int] | tuple = ()) -> li
     return [x - best for x in w]
 
 
+_FIRST = itemgetter(0)
+
+
 class _Planner:
     def __init__(
         self, bed: Bed, moves: list[Move], gauge: int | None, free: tuple[int, int] | None
@@ -262,10 +266,11 @@ class _Planner:
         self.units = list(by_src.values())
         self.fixed: dict[Pos, int] = {}
         """Loops that do not move (needle -> a stitch of it, -1 if none is known)."""
+        fixed, at_get = self.fixed, bed.at.get  # (this is the plan's cost per loop on the bed)
         for pos, n in bed.loops.items():
             if n > 0 and pos not in by_src:
-                ss = bed.at.get(pos)
-                self.fixed[pos] = min(ss) if ss else -1
+                ss = at_get(pos)
+                fixed[pos] = min(ss) if ss else -1
         for pos in self.fixed:
             if pos[0] in SLIDERS:
                 raise Unsupported(f"a loop waits on slider {pos[0]}{pos[1]}")
@@ -297,21 +302,27 @@ class _Planner:
             return None
         return course[s]
 
+    def _pieces(self) -> list[int] | None:
+        """Per stitch, its piece (`_piece`), or None when the graph has neither nodes nor
+        courses: one list for the loops of a whole bed, looked up without a call each."""
+        node = self.bed.stitch_nodes()
+        return self.bed.stitch_courses() if node is None else node
+
     def _piece(self, s: int) -> int | None:
         """The node of stitch s: the loops of one node on the bed form one cycle (a slice's
         ring holds the end of one course and the start of the next)."""
-        node = self.bed.stitch_nodes()
-        if node is None:
-            return self._course(s)
-        if s < 0 or s >= len(node):
+        piece = self._pieces()
+        if s < 0 or piece is None or s >= len(piece):
             return None
-        return node[s]
+        return piece[s]
 
     def _free_range(self, free: tuple[int, int] | None) -> None:
         """The needles the plan may use: those between the nearest loops of other pieces
         (loops of the moving loops' nodes are part of the cycle, not obstacles)."""
         pieces = {self._piece(s) for u in self.units for s in u.stitches} - {None}
-        self.member = {pos for pos, s in self.fixed.items() if s >= 0 and self._piece(s) in pieces}
+        piece = self._pieces()
+        n = len(piece) if piece is not None else 0
+        self.member = {pos for pos, s in self.fixed.items() if 0 <= s < n and piece[s] in pieces}
         ends = [n for u in self.units for n in (u.pos[1], u.goal[1])]
         lo, hi = min(ends), max(ends)
         left = [p[1] for p in self.fixed if p not in self.member and p[1] < lo]
@@ -323,6 +334,7 @@ class _Planner:
             if self.lo > lo or self.hi < hi:
                 raise Unsupported(f"loops move outside the free needles {free[0]}..{free[1]}")
         self.fixed = {p: s for p, s in self.fixed.items() if self.lo <= p[1] <= self.hi}
+        self._fixed_items: dict[str, list[tuple[int, _Unit | None]]] = {}
         self.member &= set(self.fixed)
 
     def _cycle(self) -> None:
@@ -383,7 +395,11 @@ class _Planner:
         if circular is None:
             return True
         ss = [s for u in self.units for s in u.stitches] + [self.fixed[p] for p in self.member]
-        return any(bool(circular[c]) for c in {self._course(s) for s in ss} - {None})
+        course = self.bed.stitch_courses()
+        if course is None:
+            return False
+        n = len(course)
+        return any(bool(circular[c]) for c in {course[s] for s in ss if 0 <= s < n})
 
     def _gauge(self, gauge: int | None) -> None:
         """Half gauge: park on the other bed's hooks; with a parity layout, keep it."""
@@ -403,9 +419,14 @@ class _Planner:
 
     def items(self, bed: str) -> list[tuple[int, _Unit | None]]:
         """Everything on a bed's hooks, left to right: units and unmoving loops (None)."""
-        out: list[tuple[int, _Unit | None]] = [(p[1], None) for p in self.fixed if p[0] == bed]
+        fixed = self._fixed_items.get(bed)
+        if fixed is None:  # (`fixed` is final once the free range is known: sorted once)
+            fixed = self._fixed_items[bed] = sorted(
+                ((p[1], None) for p in self.fixed if p[0] == bed), key=_FIRST
+            )
+        out: list[tuple[int, _Unit | None]] = list(fixed)
         out += [(u.pos[1], u) for u in self.units if u.pos[0] == bed]
-        out.sort(key=lambda it: it[0])
+        out.sort(key=_FIRST)  # (stable: an unmoving loop before a unit on its needle)
         return out
 
     def final_at(self, it: _Unit | None, bed: str, n: int) -> bool:
