@@ -320,8 +320,8 @@ class _Planner:
         """The needles the plan may use: those between the nearest loops of other pieces
         (loops of the moving loops' nodes are part of the cycle, not obstacles)."""
         pieces = {self._piece(s) for u in self.units for s in u.stitches} - {None}
-        piece = self._pieces()
-        n = len(piece) if piece is not None else 0
+        piece = self._pieces() or []
+        n = len(piece)
         self.member = {pos for pos, s in self.fixed.items() if 0 <= s < n and piece[s] in pieces}
         ends = [n for u in self.units for n in (u.pos[1], u.goal[1])]
         lo, hi = min(ends), max(ends)
