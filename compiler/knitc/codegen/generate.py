@@ -42,7 +42,13 @@ from knitc.codegen import casting as cast
 from knitc.codegen.bed import BEDS, Bed, Pos, Unsupported
 from knitc.codegen.bed import needle as needle_of
 from knitc.codegen.machine import Machine, MachineProgram, racking_for
-from knitc.codegen.steps import Action, continues_in_place, empty_needle_number, run_actions
+from knitc.codegen.steps import (
+    Action,
+    continues_in_place,
+    empty_needle_number,
+    run_actions,
+    run_by_depth,
+)
 from knitc.codegen.transfers import move
 from knitc.diagnostics import Diagnostics
 from knitc.frontend import skeleton as sk
@@ -831,11 +837,7 @@ def _run_mixed(
 ) -> None:
     """`run_actions` of one sub-pass whose plain knits are `items` tuples (`_action_pass`),
     then the lead-out after the last main step."""
-    lists = [a.pre for a in acts]
-    for k in range(max((len(fs) for fs in lists), default=0)):
-        for fs in lists:
-            if k < len(fs):
-                fs[k]()
+    run_by_depth([a.pre for a in acts])
     for it in items:
         if isinstance(it, Action):
             for f in it.main:
@@ -844,11 +846,7 @@ def _run_mixed(
             _knit(gen, ctx, *it)
     if items:
         _lead_out(gen, ctx, chunk)
-    lists = [a.post for a in acts]
-    for k in range(max((len(fs) for fs in lists), default=0)):
-        for fs in lists:
-            if k < len(fs):
-                fs[k]()
+    run_by_depth([a.post for a in acts])
 
 
 def _knit(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, plain: int) -> None:

@@ -28,15 +28,17 @@ class Action:
 
 def run_actions(actions: list[Action]) -> None:
     """Run the steps of a sub-sequence of stitches in the order of the thesis's action pass."""
-    for part in ("pre", "main", "post"):
-        lists = [getattr(a, part) for a in actions]
-        if part == "main":
-            order = [f for fs in lists for f in fs]
-        else:
-            depth = max((len(fs) for fs in lists), default=0)
-            order = [fs[k] for k in range(depth) for fs in lists if k < len(fs)]
-        for f in order:
-            f()
+    run_by_depth([a.pre for a in actions])
+    for f in [f for a in actions for f in a.main]:
+        f()
+    run_by_depth([a.post for a in actions])
+
+
+def run_by_depth(lists: list[list[ActionStep]]) -> None:
+    """Pre or post steps: the k-th step of every stitch for k = 0, 1, ..."""
+    depth = max((len(fs) for fs in lists), default=0)
+    for f in [fs[k] for k in range(depth) for fs in lists if k < len(fs)]:
+        f()
 
 
 def continues_in_place(gen, s: int) -> int:
