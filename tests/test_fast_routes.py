@@ -12,13 +12,17 @@ from functools import cache
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
 
 from knitc.backends.dat_format import DatError, _encode_rows, encode, pack, render
 from knitc.backends.dat_write import DatWriteError, to_dat
 from knitc.backends.knitout import write_knitout
 from knitc.backends.knitout_read import KnitoutError, knitout_to_dat, parse_knitout
+from knitc.codegen.bed import Pos, Unsupported
 from knitc.driver import compile_file, compile_source
 from test_stdlib_patterns import CASES, NO_PURL, SHAPES
+from test_transfers import Problem, make_bed
 
 REPO = Path(__file__).resolve().parent.parent
 FILES = sorted(p for p in (REPO / "tests").rglob("*.k") if "fuzz" not in p.parts)
@@ -136,9 +140,10 @@ CODEGEN = [f"examples/{n}.knit" for n in ("tube", "sheet", "sock", "sweater", "g
 
 
 def _ops(text: str, path: str, fast: bool, monkeypatch: pytest.MonkeyPatch) -> list:
-    from knitc.codegen import generate
+    from knitc.codegen import generate, transfers
 
     monkeypatch.setattr(generate, "FAST_PASSES", fast)
+    monkeypatch.setattr(transfers, "FAST_ALONG_BED", fast)
     r = compile_source(text, path, until="machine")
     assert r.program is not None and not r.diagnostics.has_errors, r.diagnostics.render()
     return list(r.program.ops)
@@ -169,3 +174,58 @@ def test_action_pass_short_cuts_on_every_stdlib_pattern(module, name, shape, mon
         f"import {module} ({name})\n" + SHAPES[shape].format() + f"\npattern s {{ apply {call} }}\n"
     )
     _same_ops(src, "t.knit", monkeypatch)
+
+
+# ---- the transfer planner's short cut for one loop along its bed ----------------------------
+
+
+@st.composite
+def along_bed(draw) -> tuple[Problem, float | None, tuple[int, Pos, Pos]]:
+    """A bed of loops (either gauge, pieces, a loop on a slider now and then) and one move
+    of a loop, mostly a few needles along its bed (the bind-off's move), sometimes across
+    a loop, to the other bed, or too far: the short cut must decline what it cannot plan."""
+    half = draw(st.booleans())
+    needles = draw(st.sets(st.integers(0, 30), min_size=1, max_size=14))
+    start: dict[Pos, int] = {}
+    for n in sorted(needles):
+        bed = draw(
+            st.sampled_from(["f", "b", "f", "b", "fs"] if draw(st.booleans()) else ["f", "b"])
+        )
+        if half and bed in ("f", "b") and draw(st.integers(0, 9)):
+            n = 2 * (n // 2) + (bed == "b")  # keep the half-gauge parity, mostly
+        start.setdefault((bed, n), len(start))
+    hooks = [p for p in start if p[0] in ("f", "b")]
+    assume(hooks)
+    src = draw(st.sampled_from(hooks))
+    dst_bed = src[0] if draw(st.integers(0, 5)) else ("b" if src[0] == "f" else "f")
+    dst = (dst_bed, min(39, max(0, src[1] + draw(st.integers(-6, 6)))))
+    assume(dst != src)
+    pb = Problem(
+        start,
+        {},
+        max_rack=draw(st.sampled_from([1, 2, 3, 4])),
+        needles=40,
+        course={s: draw(st.integers(0, 1)) for s in start.values()},
+        circular=draw(st.booleans()),
+    )
+    carrier = draw(st.none() | st.integers(-1, 40).map(lambda x: x + 0.5))
+    return pb, carrier, (start[src], src, dst)
+
+
+def _plan(pb: Problem, carrier: float | None, m, fast: bool, monkeypatch) -> object:
+    from knitc.codegen import transfers
+
+    monkeypatch.setattr(transfers, "FAST_ALONG_BED", fast)
+    bed = make_bed(pb, carrier_at=carrier)
+    try:
+        return transfers.plan(bed, [m])
+    except Unsupported as exc:
+        return str(exc)
+
+
+@settings(max_examples=600, deadline=None, suppress_health_check=list(HealthCheck))
+@given(along_bed())
+def test_one_loop_along_its_bed_is_planned_as_the_planner_does(case) -> None:
+    pb, carrier, m = case
+    with pytest.MonkeyPatch.context() as mp:
+        assert _plan(pb, carrier, m, True, mp) == _plan(pb, carrier, m, False, mp)

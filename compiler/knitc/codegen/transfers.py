@@ -122,7 +122,62 @@ def plan(
     moves = [m for m in moves if m[1] != m[2] and bed.loops.get(m[1], 0)]
     if not moves:
         return []
+    if FAST_ALONG_BED and len(moves) == 1 and gauge is None and free is None:
+        steps = _along_bed(bed, *moves[0])
+        if steps is not None:
+            return steps
     return _Planner(bed, moves, gauge, free).run()
+
+
+FAST_ALONG_BED = True
+"""Whether `plan` takes `_along_bed`'s short cut (tests switch it off to hold it to the
+planner's own plan, step for step)."""
+
+
+def _along_bed(bed: Bed, s: int, src: Pos, dst: Pos) -> list[Step] | None:
+    """The planner's plan for one loop moving along its bed within the racking limit, with
+    no loop between its needle and its target, made without building the planner; None
+    when the case is not that simple (the caller then plans it in full).
+
+    This is a bind-off's move, once per stitch: the full planner reads every loop on the
+    bed for it (its cycle, winding numbers, gauge and free range), which makes a cast-off
+    quadratic in the width of the course. For this case the planner's answer is known: no
+    loop changes order, so every winding is 0 and nothing rotates; one Shift round parks
+    the loop at racking 0 on the other bed's hook (half gauge, when that hook is empty)
+    or its slider, and brings it back at the racking of its displacement. What still needs
+    the whole bed is read in one pass: the gauge (the parity of every loop, as `_gauge`)
+    and that no loop waits on a slider. A carrier whose yarn the move would cross needs
+    parking, which the planner decides; so does a bed of mixed parity around a move that
+    keeps it."""
+    b, x = src
+    if b not in BEDS or dst[0] != b or not 0 <= dst[1] < bed.prog.machine.needles:
+        return None
+    d = dst[1] - x
+    loops = bed.loops
+    for n in range(min(x, dst[1]) + 1, max(x, dst[1])):
+        if loops.get((b, n), 0) > 0:
+            return None  # a loop in the way: the planner says what to do (or why not)
+    back = b == "b"
+    parity: int | None = (x + back) % 2
+    if (dst[1] + back) % 2 != parity:
+        parity = None  # the move itself changes parity: full gauge whatever the bed holds
+    for (pb, pn), k in loops.items():
+        if k > 0:
+            if pb in SLIDERS:
+                return None  # the planner refuses this (a loop waits on a slider)
+            if parity is not None and (pn + (pb == "b")) % 2 != parity:
+                return None  # mixed: the planner's parity depends on its free range
+    R = bed.max_rack
+    reach = R - (R % 2 if parity is not None else 0)
+    if abs(d) > reach:
+        return None
+    lo, hi = (x, dst[1]) if x < dst[1] else (dst[1], x)
+    for cx, anchor in _carriers(bed).values():
+        if lo < cx < hi and anchor != src:
+            return None  # a carrier to park first
+    hook, slider = _PARK[b]
+    slot = (hook, x) if parity is not None and loops.get((hook, x), 0) <= 0 else (slider, x)
+    return [Xfer(src, slot, s, 0), Xfer(slot, dst, s, d if b == "f" else -d)]
 
 
 # ---- carriers -----------------------------------------------------------------------------
