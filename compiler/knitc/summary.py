@@ -57,14 +57,19 @@ class Workload:
 def workload(prog: MachineProgram) -> Workload:
     """One walk over the program's passes: each is a transfer pass or a knitting one by
     the kind of its operations (a pass never mixes them)."""
-    first: dict[int, str] = {}
-    for op, p in zip(prog.ops, pass_index(prog.ops), strict=True):
-        if p >= 0:
-            first.setdefault(p, op.kind)
-    xfers = sum(1 for kind in first.values() if kind == "xfer")
-    idx = [n.index for op in prog.ops for n in (op.needle, op.needle2) if n is not None]
+    ops = prog.ops
+    kinds: list[str] = []  # the kind of each pass's first op (pass numbers only grow)
+    last = -1
+    for op, p in zip(ops, pass_index(ops), strict=True):
+        if p > last:
+            kinds.append(op.kind)
+            last = p
+    xfers = kinds.count("xfer")
+    # (a program names a few hundred distinct needles: a set of them, then their indices)
+    needles = {op.needle for op in ops} | {op.needle2 for op in ops}
+    idx = [n.index for n in needles if n is not None]
     width = max(idx) - min(idx) + 1 if idx else 0
-    return Workload(len(first) - xfers, xfers, width)
+    return Workload(len(kinds) - xfers, xfers, width)
 
 
 def machine_seconds(prog: MachineProgram) -> float:

@@ -643,43 +643,58 @@ def pass_index(ops: Iterable[Op]) -> list[int]:
     draw one row per pass from this, so their rows are the passes knitc reports.
     """
     out: list[int] = []
+    append = out.append
     passes = -1
-    cur: tuple[Any, ...] | None = None  # (class, dir, carriers, racking)
+    # the pass in progress: its class ("knit", "xfer", "drop"; None: none), direction,
+    # carriers and racking, compared field by field (no key tuple per op)
+    cls: str | None = None
+    cdir: int = 0
+    ccarriers: Any = ()
+    crack: float = 0
     used: set[Needle] = set()
     last_pos = 0.0
     racking: float = 0
+    directed = DIRECTED_KINDS
     for op in ops:
         k = op.kind
-        if k == "rack":
-            racking = op.value  # type: ignore[assignment]
-            out.append(-1)
-            continue
-        if k == "pause":
-            cur = None
-            out.append(-1)
-            continue
-        if k in DIRECTED_KINDS:
-            key: tuple[Any, ...] = ("knit", op.dir, op.carriers, racking)
+        if k in directed:
+            kc, kd, kcar = "knit", op.dir, op.carriers
         elif k == "xfer":
-            key = ("xfer", 0, (), racking)
-        elif k in ("drop", "amiss"):
-            key = ("drop", 0, (), racking)
+            kc, kd, kcar = "xfer", 0, ()
+        elif k == "drop" or k == "amiss":
+            kc, kd, kcar = "drop", 0, ()
         else:
-            out.append(-1)
+            if k == "rack":
+                racking = op.value  # type: ignore[assignment]
+            elif k == "pause":
+                cls = None
+            append(-1)
             continue
-        assert op.needle is not None
-        pos = op.needle.position(racking)
-        needles = {op.needle} if op.needle2 is None else {op.needle, op.needle2}
-        same = cur == key and not (needles & used)
-        if same and k in DIRECTED_KINDS:
-            same = (pos - last_pos) * op.dir >= 0
+        n, n2 = op.needle, op.needle2
+        assert n is not None
+        pos = n.index + racking if n.bed in _BACK else float(n.index)
+        same = (
+            cls == kc
+            and cdir == kd
+            and ccarriers == kcar
+            and crack == racking
+            and n not in used
+            and (n2 is None or n2 not in used)
+        )
+        if same and kc == "knit":
+            same = (pos - last_pos) * kd >= 0
         if not same:
             passes += 1
-            cur, used = key, set()
-        used |= needles
+            cls, cdir, ccarriers, crack, used = kc, kd, kcar, racking, set()
+        used.add(n)
+        if n2 is not None:
+            used.add(n2)
         last_pos = pos
-        out.append(passes)
+        append(passes)
     return out
+
+
+_BACK = frozenset(("b", "bs"))
 
 
 # ---- verifier ---------------------------------------------------------------------------------
