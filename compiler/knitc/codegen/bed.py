@@ -13,7 +13,7 @@ from collections import defaultdict
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from knitc.codegen.machine import MachineProgram, Needle
+from knitc.codegen.machine import MachineProgram, Needle, Op
 from knitc.shaping.stitch_graph import StitchGraph
 
 Pos = tuple[str, int]
@@ -129,7 +129,7 @@ class Bed:
         of `prog.stitch_number` and `stitch_op` per stitch; made here in one loop because
         most passes of every design are plain (issue 16)."""
         prog, loops, where, at = self.prog, self.loops, self.where, self.at
-        needle_op, carriers = prog.needle_op, (carrier,)
+        carriers = (carrier,)
         if self._span_of is None:
             self.span(0)
         spans = self._span_of
@@ -137,13 +137,32 @@ class Bed:
         number = None
         pos = None
         d = 0
+        # each op is `prog.needle_op`'s, built here without its call and the named tuple's
+        # Python-level __new__ (two calls per stitch of every plain pass)
+        ops, new, phase, shared = prog.ops, tuple.__new__, prog.phase, _NEEDLES.get
         for stitch, d, pos, plain, empty in run:
             full = loops.get(pos, 0)
             k = plain if full else empty
             if k != number:
                 prog.stitch_number(k)
                 number = k
-            needle_op("knit" if full else "tuck", d, needle(pos), carriers, stitch, spans[stitch])
+            n = shared(pos) or needle(pos)
+            ops.append(
+                new(
+                    Op,
+                    (
+                        "knit" if full else "tuck",
+                        d,
+                        n,
+                        None,
+                        carriers,
+                        None,
+                        stitch,
+                        spans[stitch],
+                        phase,
+                    ),
+                )
+            )
             if full:
                 for s in at.pop(pos, ()):
                     del where[s]

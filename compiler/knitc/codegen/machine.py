@@ -383,6 +383,11 @@ class MachineProgram:
         finally:
             self._context.pop()
 
+    @property
+    def phase(self) -> str:
+        """The code pass the ops built now are tagged with (`code_pass`)."""
+        return self._phase
+
     @contextmanager
     def code_pass(self, name: str) -> Iterator[None]:
         """Tag the ops built inside the block with code pass `name` (`CODE_PASSES`)."""

@@ -172,9 +172,10 @@ def _along_bed(bed: Bed, s: int, src: Pos, dst: Pos) -> list[Step] | None:
     if abs(d) > reach:
         return None
     lo, hi = (x, dst[1]) if x < dst[1] else (dst[1], x)
-    for cx, anchor in _carriers(bed).values():
-        if lo < cx < hi and anchor != src:
-            return None  # a carrier to park first
+    if any(lo < cx < hi for cx in bed.carrier_at.values()):  # (else no carrier to read)
+        for cx, anchor in _carriers(bed).values():
+            if lo < cx < hi and anchor != src:
+                return None  # a carrier to park first
     hook, slider = _PARK[b]
     slot = (hook, x) if parity is not None and loops.get((hook, x), 0) <= 0 else (slider, x)
     return [Xfer(src, slot, s, 0), Xfer(slot, dst, s, d if b == "f" else -d)]
