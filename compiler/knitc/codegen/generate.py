@@ -31,7 +31,7 @@ is the stitch's declaration.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import partial
 
@@ -87,9 +87,9 @@ class CodegenOptions:
     interface_span: Mapping[str, Span] = field(default_factory=dict)
     node_increase: Mapping[str, str] = field(default_factory=dict)
     numbers: cast.StitchNumbers = cast.STITCH_NUMBERS
-    actions: tuple = ()
+    actions: Sequence = ()
     """The design's actions and the built-ins, ready to run (`patterning.actions.Program`),
-    indexed by `StitchGraph.action` (`action_table`)."""
+    indexed by `StitchGraph.action` (`action_table`: each made at its first use)."""
 
     def cast_on_for(self, names: tuple[str, ...]) -> str:
         return next(
@@ -124,7 +124,7 @@ def options_from_skeleton(skel: sk.Skeleton) -> CodegenOptions:
     )
 
 
-def action_table(skel: sk.Skeleton) -> tuple:
+def action_table(skel: sk.Skeleton) -> Sequence:
     """The actions (`patterning.actions.Program`) in the order `StitchGraph.action` numbers
     them: the design's and the built-in names, by name (`patterning.actions.table`)."""
     return pattern_actions.table(skel)

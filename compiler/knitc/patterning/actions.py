@@ -24,9 +24,10 @@ Ids and built-ins
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
+from typing import overload
 
 from knitc.diagnostics import Diagnostics
 from knitc.frontend import ast
@@ -109,10 +110,40 @@ def names(skel) -> list[str]:
     return sorted(set(skel.actions) | set(BUILTIN_ACTIONS))
 
 
-def table(skel) -> tuple[Program, ...]:
-    """The actions `StitchGraph.action` indexes (`codegen.action_table`)."""
-    params = dict(skel.params)
-    return tuple(_program(n, skel.actions.get(n) or builtin(n), params) for n in names(skel))
+class Table(Sequence[Program]):
+    """The actions `StitchGraph.action` indexes (`codegen.action_table`), each made when code
+    generation first asks for it: most designs knit no action, and the built-ins' program
+    comes from parsing `std/actions.knit`, a second parse of every compile otherwise."""
+
+    def __init__(self, skel) -> None:
+        self._names = names(skel)
+        self._defs = skel.actions
+        self._params = dict(skel.params)
+        self._made: dict[int, Program] = {}
+
+    def __len__(self) -> int:
+        return len(self._names)
+
+    @overload
+    def __getitem__(self, i: int) -> Program: ...
+
+    @overload
+    def __getitem__(self, i: slice) -> tuple[Program, ...]: ...
+
+    def __getitem__(self, i: int | slice) -> Program | tuple[Program, ...]:
+        if isinstance(i, slice):
+            return tuple(self[k] for k in range(len(self))[i])
+        k = range(len(self._names))[i]  # (IndexError as a tuple's, negative indices too)
+        prog = self._made.get(k)
+        if prog is None:
+            n = self._names[k]
+            prog = self._made[k] = _program(n, self._defs.get(n) or builtin(n), self._params)
+        return prog
+
+
+def table(skel) -> Table:
+    """The actions `StitchGraph.action` indexes (`codegen.action_table`), made lazily."""
+    return Table(skel)
 
 
 def _program(name: str, defn: ast.ActionDef, params: Mapping[str, Value]) -> Program:
