@@ -130,11 +130,10 @@ def _flat_cands(
     if ib.size > 1 and np.ptp(ref_rel) > 0 and np.ptp(ib) > 0:
         inc = 1 if np.corrcoef(ib, ref_rel)[0, 1] >= 0 else -1
     params = np.zeros((len(allp), 7), np.int64)
-    beds = np.zeros((len(allp), n), np.int8)
-    rels = np.zeros((len(allp), n), np.int64)
-    for i, (m, s, sp, mi) in enumerate(allp):
-        params[i] = (FLAT, -1, 0, m, s, sp, mi)
-        beds[i], rels[i] = ir.flat_layout(n, m, s, sp, mi)
+    params[:, 0], params[:, 1] = FLAT, -1
+    params[:, 3:] = np.array(allp, np.int64).reshape(-1, 4)
+    beds, rel32 = ir.flat_layouts(n, params[:, 3:])
+    rels = rel32.astype(np.int64)
     align = (params[:, 3] != n).astype(np.int64)
     majority = int(np.argmax(np.bincount(ref_bed.astype(np.int64), minlength=2))) if ib.size else 0
     tie = (

@@ -102,15 +102,24 @@ def flat_layout(
     on `side` at relative needles 0..main-1, the l first entries folded back under the left
     end and the r last ones under the right end (l + r = n - main, split by `spread`);
     `mirror` lays the same shape out right to left."""
+    bed, rel = flat_layouts(n, np.array([(main, side, spread, mirror)], np.int64))
+    return bed[0], rel[0]
+
+
+def flat_layouts(n: int, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`flat_layout` of every row (main, side, spread, mirror) of `params` at once: (bed,
+    rel), each (len(params), n). A short row weighs all of its C-shapes, about 6n of them,
+    and laying them out one by one was most of a small design's scheduling."""
+    p = np.asarray(params, np.int64).reshape(-1, 4)
+    main, side, spread, mirror = (p[:, k : k + 1] for k in range(4))
     rest = n - main
-    left = {0: rest, 1: 0, 2: rest // 2}[spread]
-    i = np.arange(n)
+    left = np.where(spread == 0, rest, np.where(spread == 1, 0, rest // 2))
+    i = np.arange(n)[None, :]
     rel = np.where(
         i < left, left - 1 - i, np.where(i < left + main, i - left, main - 1 - (i - left - main))
     )
     bed = np.where((i >= left) & (i < left + main), side, 1 - side).astype(np.int8)
-    if mirror:
-        rel = main - 1 - rel
+    rel = np.where(mirror != 0, main - 1 - rel, rel)
     return bed, rel.astype(np.int32)
 
 
