@@ -15,9 +15,27 @@ from typing import Any
 from knitc.source import UNKNOWN_SPAN, Span
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Node:
+    """Every node is a frozen dataclass compared, hashed and shown by its fields (its span
+    and other `compare=False` fields left out of equality, `repr=False` ones out of its
+    repr) through the three methods here: generated per class, as a dataclass does with
+    eq and repr, they were a third of knitc's start-up (each class compiles its own)."""
+
     span: Span = field(default=UNKNOWN_SPAN, compare=False, repr=False, kw_only=True)
+
+    def __eq__(self, other: object) -> bool:
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return _key(self) == _key(other)
+
+    def __hash__(self) -> int:
+        return hash(_key(self))
+
+    def __repr__(self) -> str:
+        shown = _shown(type(self))
+        args = ", ".join(f"{name}={getattr(self, name)!r}" for name in shown)
+        return f"{type(self).__qualname__}({args})"
 
     def children(self) -> list[Node]:
         out: list[Node] = []
@@ -36,6 +54,25 @@ class Node:
             stack.extend(reversed(n.children()))
 
 
+_COMPARED: dict[type, tuple[str, ...]] = {}
+_SHOWN: dict[type, tuple[str, ...]] = {}
+
+
+def _key(node: Node) -> tuple[Any, ...]:
+    """The values that make a node's identity, as a dataclass's eq compares them."""
+    names = _COMPARED.get(type(node))
+    if names is None:
+        names = _COMPARED[type(node)] = tuple(f.name for f in fields(node) if f.compare)
+    return tuple([getattr(node, name) for name in names])
+
+
+def _shown(cls: type) -> tuple[str, ...]:
+    names = _SHOWN.get(cls)
+    if names is None:
+        names = _SHOWN[cls] = tuple(f.name for f in fields(cls) if f.repr)
+    return names
+
+
 def _collect(value: Any, out: list[Node]) -> None:
     if isinstance(value, Node):
         out.append(value)
@@ -44,7 +81,7 @@ def _collect(value: Any, out: list[Node]) -> None:
             _collect(v, out)
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Ident(Node):
     """A name written by the user, kept with its own span for precise diagnostics."""
 
@@ -54,41 +91,41 @@ class Ident(Node):
 # ---- expressions ---------------------------------------------------------------------------
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Number(Node):
     value: int | float
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class String(Node):
     value: str
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Bool(Node):
     value: bool
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class GridCell(Node):
     text: str
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Grid(Node):
     """A drawn grid: rows of instruction mnemonics, as written (top row first)."""
 
     rows: tuple[tuple[GridCell, ...], ...]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ParamRef(Node):
     """`#name`: a design parameter."""
 
     name: str
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class PropRef(Node):
     """`@prop` (the enclosing node's property) or `@node.prop`."""
 
@@ -96,50 +133,50 @@ class PropRef(Node):
     prop: str
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Name(Node):
     """A bare name: an enum word (`half`), a local, a builtin or a definition."""
 
     id: str
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ListExpr(Node):
     items: tuple[Expr, ...]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ProfilePoint(Node):
     t: Expr
     value: Expr
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Profile(Node):
     """`[t0: v0, t1: v1, ...]`: a piecewise-linear function over t in [0, 1]."""
 
     points: tuple[ProfilePoint, ...]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class TupleExpr(Node):
     items: tuple[Expr, ...]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Unary(Node):
     op: str  # "-" or "not"
     operand: Expr
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Binary(Node):
     op: str  # + - * / % ^ == != < <= > >= and or
     left: Expr
     right: Expr
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Range(Node):
     """`start:stop` or `start:step:stop` (inclusive, as in thesis Table 5.1)."""
 
@@ -148,25 +185,25 @@ class Range(Node):
     step: Expr | None = None
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class KwArg(Node):
     name: Ident
     value: Expr
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Call(Node):
     func: Expr
     args: tuple[Arg, ...]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Attr(Node):
     obj: Expr
     name: Ident
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Index(Node):
     obj: Expr
     index: Expr
@@ -195,7 +232,7 @@ Arg = Expr | Range | KwArg
 # ---- declarations ----------------------------------------------------------------------------
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Prop(Node):
     """`name: value` inside a node, machine, interface or action block."""
 
@@ -203,7 +240,7 @@ class Prop(Node):
     value: Expr
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Import(Node):
     """`import std.stitches (rib)` (module) or `import "lace.knit"` (file)."""
 
@@ -212,18 +249,18 @@ class Import(Node):
     names: tuple[Ident, ...] | None = None
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ParamDecl(Node):
     name: Ident
     value: Expr
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class MachineDecl(Node):
     props: tuple[Prop, ...]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class NodeDecl(Node):
     """A shape primitive: `sheet`, `tube`, `joint` or `split`."""
 
@@ -232,7 +269,7 @@ class NodeDecl(Node):
     props: tuple[Prop, ...]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ItfRef(Node):
     """`node.bottom`, `node.top`, `node.base`, `node.branches[i]`."""
 
@@ -241,7 +278,7 @@ class ItfRef(Node):
     index: Expr | None = None
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ItfStmt(Node):
     """Interface state and casting: `a.bottom closed(zigzag) { cast_on: tuck }`."""
 
@@ -251,18 +288,18 @@ class ItfStmt(Node):
     props: tuple[Prop, ...] | None
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Connect(Node):
     a: ItfRef
     b: ItfRef
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Start(Node):
     itf: ItfRef
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ParamDef(Node):
     """A formal parameter of a pattern or shaper definition, with optional default."""
 
@@ -273,7 +310,7 @@ class ParamDef(Node):
 # ---- pattern layers ------------------------------------------------------------------------
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class SetStmt(Node):
     """`set P where q`: write a pattern instruction on the selected stitches."""
 
@@ -281,7 +318,7 @@ class SetStmt(Node):
     where: Expr | None = None
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class UseStmt(Node):
     """`use purl_flat where q`: attach a stitch action to the selected stitches."""
 
@@ -289,7 +326,7 @@ class UseStmt(Node):
     where: Expr | None = None
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ApplyStmt(Node):
     """`apply rib(2, 2) where q`: run a pattern definition on the selected stitches."""
 
@@ -298,7 +335,7 @@ class ApplyStmt(Node):
     where: Expr | None = None
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class GridStmt(Node):
     """`draw` (singular, centred), `stretch` (scalable) or `tile` (tileable) a grid."""
 
@@ -307,7 +344,7 @@ class GridStmt(Node):
     where: Expr | None = None
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Let(Node):
     name: Ident
     value: Expr
@@ -316,7 +353,7 @@ class Let(Node):
 LayerStmt = SetStmt | UseStmt | ApplyStmt | GridStmt | Let
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class PatternLayer(Node):
     """`pattern cuff { ... }`; the target `before`/`after` means the global layers."""
 
@@ -324,7 +361,7 @@ class PatternLayer(Node):
     body: tuple[LayerStmt, ...]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class PatternDef(Node):
     name: Ident
     params: tuple[ParamDef, ...]
@@ -334,32 +371,32 @@ class PatternDef(Node):
 # ---- statements (shaper programs and action steps) ------------------------------------------
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Block(Node):
     stmts: tuple[Stmt, ...]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Assign(Node):
     name: Ident
     value: Expr
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class If(Node):
     cond: Expr
     then: Block
     orelse: Block | If | None = None
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class For(Node):
     var: Ident
     iter: Expr
     body: Block
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class MapStmt(Node):
     """`i -> j` (map), `i -> (j1, j2)` (increase), `(i1, i2) -> j` (decrease)."""
 
@@ -367,7 +404,7 @@ class MapStmt(Node):
     dst: Expr
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ExprStmt(Node):
     expr: Expr
 
@@ -375,13 +412,13 @@ class ExprStmt(Node):
 Stmt = Let | Assign | If | For | MapStmt | ExprStmt
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ActionStep(Node):
     step: str  # pre, main, post
     body: Block
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ActionDef(Node):
     """A user stitch action (thesis ch. 6.9.1): properties and pre/main/post steps."""
 
@@ -389,7 +426,7 @@ class ActionDef(Node):
     items: tuple[Prop | ActionStep, ...]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ShaperDef(Node):
     """A user shaper program mapping a course of M stitches onto one of N (ch. 5.4.1)."""
 
@@ -413,12 +450,12 @@ Item = (
 )
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Comment(Node):
     text: str
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Module(Node):
     """One source file: its items in order, and its comments (kept for the formatter)."""
 
