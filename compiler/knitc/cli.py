@@ -12,8 +12,6 @@ import argparse
 import os
 import stat
 import sys
-import tempfile
-import traceback
 
 from knitc import (
     __version__,
@@ -369,6 +367,8 @@ def write_atomic(path: str, data: str | bytes) -> None:
         umask = os.umask(0)
         os.umask(umask)
         mode = 0o666 & ~umask  # what a plain open() would have made, not mkstemp's 0600
+    import tempfile  # (only a command that writes a file needs it: `check` never does)
+
     fd, tmp = tempfile.mkstemp(prefix=".knitc-", dir=os.path.dirname(target))
     try:
         with os.fdopen(fd, "wb") as f:
@@ -745,6 +745,8 @@ def main(argv: list[str] | None = None) -> int:
             "This is a bug in knitc, not in your design. Please report it with the input "
             "file and this message:\n"
         )
+        import traceback
+
         traceback.print_exc(file=sys.stderr)
         return 3
 
