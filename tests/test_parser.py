@@ -561,3 +561,64 @@ def test_enormous_source_line_is_clipped_around_the_caret():
     assert len(source_line) < 120 and len(caret_line) < 120
     assert source_line.count("…") == 2
     assert source_line[caret_line.index("^")] == "$"
+
+
+# ---- the shared root scanner (frontend/scanners.py) against Lark's own contextual lexer ------
+
+
+def _stock_parser():
+    """The parser as Lark makes it: a compiled scanner per state (no `share_root_scanner`)."""
+    from knitc.frontend import parser as ps
+    from knitc.frontend import tables
+    from knitc.resources import grammar_text
+
+    options = {
+        "parser": "lalr",
+        "lexer": "contextual",
+        "propagate_positions": True,
+        "maybe_placeholders": True,
+    }
+    lark = tables.load_lark(grammar_text(), options, {"COMMENT": ps._on_comment})
+    lark.parser.lexer = ps._ContextualKeywords(lark.parser.lexer)
+    return lark
+
+
+def _tokens(lark, text: str) -> object:
+    """Every token of the parse (type, text, place), or the error it stops at."""
+    from lark import Token
+    from lark.exceptions import UnexpectedInput
+
+    try:
+        tree = lark.parse(text)
+    except UnexpectedInput as exc:
+        return ("error", type(exc).__name__, exc.pos_in_stream, str(exc))
+    return [
+        (t.type, str(t), t.start_pos, t.end_pos)
+        for t in tree.scan_values(lambda v: isinstance(v, Token))
+    ]
+
+
+def _inputs() -> list[tuple[str, str]]:
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parent.parent
+    files = [
+        *sorted((repo / "examples").rglob("*.knit")),
+        *sorted((repo / "stdlib").rglob("*.knit")),
+        *sorted((repo / "tests").rglob("*.knit")),
+        *sorted((repo / "tests" / "fuzz" / "corpus" / "knit").iterdir()),
+    ]
+    out = [
+        (str(p.relative_to(repo)), p.read_text(encoding="utf-8", errors="replace")) for p in files
+    ]
+    # and each file cut short, so that errors in every state are compared too
+    out += [(f"{n} (cut)", t[: len(t) // 2]) for n, t in out[:60]]
+    return out
+
+
+def test_the_shared_root_scanner_lexes_as_each_state_s_own_scanner() -> None:
+    from knitc.frontend.parser import _lark
+
+    stock, shared = _stock_parser(), _lark()
+    for name, text in _inputs():
+        assert _tokens(shared, text) == _tokens(stock, text), name

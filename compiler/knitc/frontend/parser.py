@@ -28,6 +28,7 @@ from lark.parsers.lalr_analysis import Shift
 
 from knitc.diagnostics import Diagnostics
 from knitc.frontend import ast, tables
+from knitc.frontend.scanners import share_root_scanner
 from knitc.lang import arith
 from knitc.resources import grammar_text
 from knitc.source import SourceFile, Span
@@ -159,6 +160,7 @@ def _lark() -> Lark:
         "maybe_placeholders": True,
     }
     parser = tables.load_lark(grammar_text(), options, {"COMMENT": _on_comment})
+    share_root_scanner(parser.parser.lexer)
     parser.parser.lexer = _ContextualKeywords(parser.parser.lexer)
     return parser
 

@@ -1,0 +1,90 @@
+"""One compiled scanner for all of the contextual lexer's parser states.
+
+Lark's contextual lexer gives every parser state a scanner of its own: one regular
+expression of the terminals that state accepts, compiled by Python's `re` (whose compiler
+is written in Python) when the state first lexes a token. A small design meets some forty
+states, and compiling their scanners was the largest single cost of parsing it, larger
+than the parse.
+
+`share_root_scanner` lets every state first ask the scanner of *all* terminals (Lark's
+root lexer, compiled once), and take its match when the terminal it matched is one the
+state accepts. That match is the state's own: the state's scanner tries the same
+terminals in the same order (Lark sorts them by priority, width and name), less those
+it does not accept, so a terminal the root scanner reached first after all the earlier
+ones failed is also the first the state's scanner reaches. Only a match of a terminal the
+state does not accept falls back to the state's scanner (compiled then, as before), which
+is rare in a design that parses. Keywords are the one difference between the scanners:
+Lark folds a keyword into the NAME terminal that matches it and re-types the token
+afterwards (its "unless" callback), and each state folds only the keywords it accepts, so
+each state gets that callback here from the root's keyword list (a dict, not a compiled
+scanner of its own). tests/test_parser.py holds the tokens to Lark's own lexer on every
+design, library module and test input of the repository.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from lark.lexer import BasicLexer, CallChain, ContextualLexer, Token, UnlessCallback
+
+
+class _Keywords:
+    """A state's keyword callback: a token whose text is a keyword the state accepts takes
+    that keyword's type (what Lark's UnlessCallback does with a compiled scanner)."""
+
+    def __init__(self, keywords: dict[str, str]) -> None:
+        self.keywords = keywords
+
+    def __call__(self, t: Token) -> Token:
+        kind = self.keywords.get(t.value)
+        if kind is not None:
+            t.type = kind
+        return t
+
+
+def share_root_scanner(lexer: ContextualLexer) -> None:
+    """Make each state of `lexer` try the root lexer's scanner first (module docstring)."""
+    root = lexer.root_lexer
+    assert isinstance(root, BasicLexer)
+    root_match = root.match
+    _ = root.scanner  # (built now, and with it the root's keyword folds)
+    folded: dict[str, dict[str, str]] = {}
+    for name, cb in root.callback.items():
+        inner = cb.callback1 if isinstance(cb, CallChain) else cb
+        if isinstance(inner, UnlessCallback):
+            folded[name] = {t.pattern.value: t.name for t in inner.scanner.terminals}
+    done: set[int] = set()
+    for state_lexer in lexer.lexers.values():
+        if id(state_lexer) in done or not isinstance(state_lexer, BasicLexer):
+            continue
+        done.add(id(state_lexer))
+        _share(state_lexer, root_match, folded)
+
+
+def _share(
+    lexer: BasicLexer,
+    root_match: Callable[[Any, int], tuple[str, str] | None],
+    folded: dict[str, dict[str, str]],
+) -> None:
+    accepts = frozenset(t.name for t in lexer.terminals)
+    callback: dict[str, Any] = {}
+    for name, keywords in folded.items():
+        if name in accepts:
+            mine = {v: k for v, k in keywords.items() if k in accepts}
+            if mine:
+                callback[name] = _Keywords(mine)
+    for kind, f in lexer.user_callbacks.items():  # (as Lark's `_build_scanner` chains them)
+        if kind in callback:
+            callback[kind] = CallChain(callback[kind], f, lambda t, kind=kind: t.type == kind)
+        else:
+            callback[kind] = f
+    lexer.callback = callback
+
+    def match(text: Any, pos: int) -> tuple[str, str] | None:
+        res = root_match(text, pos)
+        if res is not None and res[1] in accepts:
+            return res
+        return lexer.scanner.match(text, pos)  # (its own scanner and callbacks, built now)
+
+    lexer.match = match  # type: ignore[method-assign]
