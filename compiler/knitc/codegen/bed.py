@@ -10,7 +10,6 @@ the `Needle` of its position (`needle`), never a name to parse back.
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from knitc.codegen.machine import MachineProgram, Needle, Op
@@ -122,12 +121,20 @@ class Bed:
             where[stitch] = pos
             self.at[pos].add(stitch)
 
-    def knit_run(self, run: Iterable[tuple[int, int, Pos, int, int]], carrier: int) -> None:
-        """A plain pass, stitch by stitch in order: for each (stitch, direction, needle,
-        number, empty number), a knit through the needle's loops at stitch number `number`,
-        or on an empty needle a tuck at `empty number`. The ops and the loop model are those
-        of `prog.stitch_number` and `stitch_op` per stitch; made here in one loop because
-        most passes of every design are plain (issue 16)."""
+    def knit_run(
+        self,
+        stitches: list[int],
+        dirs: list[int],
+        needles: list[Pos],
+        numbers: list[int],
+        empty_numbers: list[int],
+        carrier: int,
+    ) -> None:
+        """A plain pass, stitch by stitch in order: each stitch knitted in its direction on
+        its needle through the needle's loops at its stitch number, or on an empty needle
+        tucked at its empty-needle number. The ops and the loop model are those of
+        `prog.stitch_number` and `stitch_op` per stitch; made here in one loop, from one
+        list per column, because most passes of every design are plain (issue 16)."""
         prog, loops, where, at = self.prog, self.loops, self.where, self.at
         carriers = (carrier,)
         if self._span_of is None:
@@ -140,7 +147,9 @@ class Bed:
         # each op is `prog.needle_op`'s, built here without its call and the named tuple's
         # Python-level __new__ (two calls per stitch of every plain pass)
         ops, new, phase, shared = prog.ops, tuple.__new__, prog.phase, _NEEDLES.get
-        for stitch, d, pos, plain, empty in run:
+        for stitch, d, pos, plain, empty in zip(
+            stitches, dirs, needles, numbers, empty_numbers, strict=True
+        ):
             full = loops.get(pos, 0)
             k = plain if full else empty
             if k != number:

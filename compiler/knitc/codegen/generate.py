@@ -750,7 +750,7 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
             gen.fetch.discard(s)
             incs[s] = ("fetch",)
     # what `_action` asks of every stitch, read from the arrays once per pass
-    half = (g.course_gauge[g.course[stitches]] == 2).tolist()
+    halves = g.course_gauge[g.course[stitches]] == 2
     numbers = gen.opts.numbers
     if (
         FAST_PASSES
@@ -760,21 +760,17 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
     ):
         # A plain pass (no increase, no action, every stitch knitted here): what the
         # general route below does for it, each stitch's one main step in order and the
-        # lead-out after the last, without an Action per stitch (most passes are plain)
-        positions, knit, knit_half = gen.positions, numbers.knit, numbers.knit_half_gauge
-        first = (g.wale_prev[stitches, 0] < 0).tolist()  # (`empty_needle_number`)
-        cast_on = numbers.cast_on
+        # lead-out after the last, without an Action per stitch (most passes are plain);
+        # the run as columns, each made at once (a tuple per stitch cost as much as a knit)
+        plain = np.where(halves, numbers.knit_half_gauge, numbers.knit)
+        first = g.wale_prev[stitches, 0] < 0  # (`empty_needle_number`)
+        dirs = gen.dirs[chunk]
         gen.bed.knit_run(
-            (
-                (
-                    s,
-                    d or 1,
-                    positions[s],
-                    knit_half if h else knit,
-                    cast_on if f else (knit_half if h else knit),
-                )
-                for s, d, h, f in zip(ids, gen.dirs[chunk].tolist(), half, first, strict=True)
-            ),
+            ids,
+            np.where(dirs == 0, 1, dirs).tolist(),
+            list(map(gen.positions.__getitem__, ids)),
+            plain.tolist(),
+            np.where(first, numbers.cast_on, plain).tolist(),
             ctx.carrier,
         )
         if ids:
@@ -790,7 +786,7 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
     for s, d, h, a, i in zip(
         ids,
         gen.dirs[chunk].tolist(),
-        half,
+        halves.tolist(),
         g.action[stitches].tolist(),
         g.instr[stitches].tolist(),
         strict=True,

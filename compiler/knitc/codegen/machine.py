@@ -863,8 +863,11 @@ def verify(prog: MachineProgram) -> list[str]:
     problems: list[str] = []
     if prog.position not in ("Left", "Center", "Right", "Keep"):
         problems.append(f"position {prog.position!r} is not Left, Center, Right or Keep")
+    machine = prog.machine
     for i, op in enumerate(prog.ops):
-        problems += [f"op {i} ({op.kind}): {p}" for p in op_problems(op, prog.machine)]
+        bad = op_problems(op, machine)
+        if bad:
+            problems += [f"op {i} ({op.kind}): {p}" for p in bad]
     return problems
 
 
