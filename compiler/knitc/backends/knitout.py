@@ -91,7 +91,9 @@ def write_knitout(
     operation (its fields but provenance: `Op.__str__` reads no others) and the source
     comment of each span are formatted once."""
     out = header_lines(prog)
-    bodies: dict[tuple, str] = {}
+    append = out.append
+    bodies: dict[tuple, str] = {}  # op[:6] -> its text, for ops without a source comment
+    lines: dict[int, dict[tuple, str]] = {}  # id(span) -> op[:6] -> the whole line
     tails: dict[int, str] = {}  # id(span) -> its comment; the ops keep the spans alive
     for op in prog.ops:
         if op.kind not in _NEEDLE_KINDS:
@@ -99,34 +101,46 @@ def write_knitout(
                 op, source_comments=source_comments, one_carrier_per_line=one_carrier_per_line
             )
             continue
-        if _exact(op):
-            key = op[:6]  # kind, dir, needle, needle2, carriers, value
-            body = bodies.get(key)
-            if body is None:
-                body = bodies[key] = str(op)
-        else:  # 1, 1.0 and True are one key but three texts: format such an op each time
-            body = str(op)
         span = op.span
+        # whether every number of the op is an int, so that equal ops print alike (true of
+        # every op code generation makes and a verified program holds)
+        n, m, cs = op.needle, op.needle2, op.carriers
+        if not (
+            type(op.dir) is int
+            and type(n) is Needle
+            and type(n.index) is int
+            and (m is None or (type(m) is Needle and type(m.index) is int))
+            and (not cs or (len(cs) == 1 and type(cs[0]) is int))
+        ):  # 1, 1.0 and True are one key but three texts: format such an op each time
+            body = str(op)
+            if source_comments and span is not None:
+                tail = tails.get(id(span))
+                if tail is None:
+                    tail = tails[id(span)] = source_comment(op)
+                body += tail
+            append(body)
+            continue
+        key = op[:6]  # kind, dir, needle, needle2, carriers, value
         if source_comments and span is not None:
-            tail = tails.get(id(span))
-            if tail is None:
-                tail = tails[id(span)] = source_comment(op)
-            body += tail
-        out.append(body)
+            mine = lines.get(id(span))
+            if mine is None:
+                mine = lines[id(span)] = {}
+            line = mine.get(key)
+            if line is None:
+                tail = tails.get(id(span))
+                if tail is None:
+                    tail = tails[id(span)] = source_comment(op)
+                text = bodies.get(key)
+                if text is None:
+                    text = bodies[key] = str(op)
+                line = mine[key] = text + tail
+            append(line)
+        else:
+            text = bodies.get(key)
+            if text is None:
+                text = bodies[key] = str(op)
+            append(text)
     return "\n".join(out) + "\n"
-
-
-def _exact(op: Op) -> bool:
-    """Whether every number of the op is an int, so that equal ops print alike (true of
-    every op code generation makes and a verified program holds)."""
-    n, m, cs = op.needle, op.needle2, op.carriers
-    return (
-        type(op.dir) is int
-        and type(n) is Needle
-        and type(n.index) is int
-        and (m is None or (type(m) is Needle and type(m.index) is int))
-        and (not cs or (len(cs) == 1 and type(cs[0]) is int))
-    )
 
 
 _NEEDLE_KINDS = frozenset({"knit", "tuck", "miss", "split", "xfer", "drop", "amiss"})
