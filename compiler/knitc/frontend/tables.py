@@ -22,6 +22,7 @@ import hashlib
 import json
 import os
 import stat
+import tempfile
 from collections.abc import Callable
 from typing import Any
 
@@ -143,8 +144,6 @@ def _write(path: str, parser: Lark) -> None:
     data = {**data, "options": {k: v for k, v in data["options"].items() if k != "lexer_callbacks"}}
     try:
         text = json.dumps({"data": _encode(data), "memo": _encode(memo)}, separators=(",", ":"))
-        import tempfile  # (written once per grammar and Lark version: not worth its import)
-
         fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), prefix=".knit-lalr-")
     except (OSError, TypeError):
         return  # the cache is an optimisation: a full disk or odd data costs only speed
