@@ -298,7 +298,7 @@ def _run(gen: _Gen) -> None:
                 _place(gen, aligned, represented, int(ids[0]))
         if v0 == course_bounds[ci]:  # a course begins
             chunk = np.arange(course_bounds[ci], course_bounds[ci + 1])
-            gen.course_needles = {gen.pos(int(x)) for x in t.stitch[chunk]}
+            gen.course_needles = set(map(gen.positions.__getitem__, t.stitch[chunk].tolist()))
             gen.realigned = {}
             ci += 1
             primary = {}
@@ -338,7 +338,7 @@ def _run(gen: _Gen) -> None:
             # Ending stitches wait for the course's cast-off (one chain around it), unless
             # the schedule lets a later slice of the course knit on one of their needles:
             # then this slice gets its own cast-off pass (ch. 6.8), with its own tail.
-            ends = [int(x) for x in ids if g.wale_next[x, 0] < 0]
+            ends = ids[g.wale_next[ids, 0] < 0].tolist()
             if ends and _reused_later(gen, ends, t.stitch[int(sub[-1]) + 1 : course_bounds[ci]]):
                 with prog.code_pass("cast_off"):
                     left, last_dir = _cast_off(gen, ctx, sub, ends)
@@ -392,7 +392,8 @@ def _finish_course(
     """Cast off what ends, end the yarn if it ends."""
     g, t = gen.g, gen.t
     ids = t.stitch[chunk]
-    ends = [int(s) for s in ids if g.wale_next[s, 0] < 0 and int(s) in gen.bed.where]
+    where = gen.bed.where
+    ends = [s for s in ids[g.wale_next[ids, 0] < 0].tolist() if s in where]
     prog = gen.bed.prog
     with prog.code_pass("cast_off"):
         left, last_dir = _cast_off(gen, ctx, chunk, ends) if ends else (-1, 0)
@@ -415,13 +416,19 @@ def _place(gen: _Gen, aligned: tuple, represented: tuple, first: int) -> None:
     schedule guarantees no two of them meet on a needle)."""
     bed = gen.bed
     moves = []
+    where_get, realigned = bed.where.get, gen.realigned
     for loops, beds, needles in (aligned, represented):
         for s, b, n in zip(loops.tolist(), beds.tolist(), needles.tolist(), strict=True):
-            here = bed.where.get(s)
-            if here is not None:
-                gen.realigned[s] = (BEDS[b], n)
-            if here is not None and here != (BEDS[b], n) and not (here[1] == n and _stays(gen, s)):
-                moves.append((s, here, (BEDS[b], n)))
+            here = where_get(s)
+            if here is None:
+                continue
+            name = BEDS[b]
+            if here[1] == n and here[0] == name:  # (most loops: already there)
+                realigned[s] = here
+                continue
+            realigned[s] = to = (name, n)
+            if not (here[1] == n and _stays(gen, s)):
+                moves.append((s, here, to))
     if moves:
         _park(gen, moves, gen.pos(first)[1])
         bed.prog.stitch_number(gen.opts.numbers.transfer)
