@@ -53,6 +53,8 @@ definition applying the next one twice, 30 deep, expands 2^30 times."""
 
 def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> StitchGraph:
     assert g.origin is not None  # filled in by StitchGraph.__post_init__
+    if not skel.layers:  # (nothing to query: no stitch coordinates, no copies of the arrays)
+        return g
     run = _Run(skel, g, diags, g.instr.copy(), g.action.copy(), g.origin.copy(), list(g.spans))
     before = [la for la in skel.layers if la.target == "before"]
     after = [la for la in skel.layers if la.target == "after"]

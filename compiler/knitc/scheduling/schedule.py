@@ -198,7 +198,8 @@ class Schedule:
     align_needle: np.ndarray  # int32
     cost: dict[str, int] = field(default_factory=dict)
     """What the optimisation reached: the cost tuple (align, roll, shift) summed over the
-    related slices, and the physical loop moves (roll, shift) it implies."""
+    related slices. The physical loop moves it implies are `loop_moves` (a replay of every
+    placement, made for the dump, not for every compile)."""
 
     @property
     def n_slices(self) -> int:
@@ -586,7 +587,7 @@ def layout_json(sched: Schedule, k: int) -> dict[str, Any]:
 
 
 def to_json(g: StitchGraph, sched: Schedule) -> dict[str, Any]:
-    """The dump of `knitc --emit schedule`: stats first, then one record per slice (its
+    """The dump of `knitc --emit schedule`: stats first (with the loop moves), then one record per slice (its
     layout, offset and each cycle entry as [stitch, state, needle]) and the alignments."""
     sl = sched.slices
     out = []
@@ -612,4 +613,6 @@ def to_json(g: StitchGraph, sched: Schedule) -> dict[str, Any]:
             sched.align_slice, sched.align_stitch, sched.align_bed, sched.align_needle, strict=True
         )
     ]
-    return {"stats": sched.stats(), "slices": out, "alignments": al}
+    roll, shift = loop_moves(g, sched)
+    stats = {**sched.stats(), "moves_roll": roll, "moves_shift": shift}
+    return {"stats": stats, "slices": out, "alignments": al}

@@ -11,7 +11,6 @@ from __future__ import annotations
 import numpy as np
 
 from knitc.diagnostics import Diagnostics
-from knitc.scheduling import schedule as ir
 from knitc.scheduling.layouts import Layouts
 from knitc.scheduling.offsets import Offsets
 from knitc.scheduling.relations import Relations
@@ -86,6 +85,5 @@ def schedule(
         align_needle=a_needle,
     )
     al, ro, sh = lay.total_cost()
-    mr, ms = ir.loop_moves(g, sched)
-    sched.cost = {"align": al, "roll": ro, "shift": sh, "moves_roll": mr, "moves_shift": ms}
+    sched.cost = {"align": al, "roll": ro, "shift": sh}
     return sched
