@@ -786,22 +786,25 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
             gen.bed.set_rack(0)
         return
     # A pass with some actions is still mostly plain knits: those stitches are kept as
-    # (stitch, direction, needle, number), not as an Action each, and knitted in their
-    # place among the main steps (they have no pre or post steps, so the other stitches'
-    # steps run in the same order as if they had an empty Action each).
-    items: list[Action | tuple[int, int, Pos, int]] = []
-    for s, d, h, a, i in zip(
+    # (stitch, direction, needle, number, empty-needle number), not as an Action each, and
+    # knitted in their place among the main steps, each run of them in one `Bed.knit_run`
+    # (they have no pre or post steps, so the other stitches' steps run in the same order
+    # as if they had an empty Action each).
+    plain = np.where(halves, numbers.knit_half_gauge, numbers.knit)
+    empty = np.where(g.wale_prev[stitches, 0] < 0, numbers.cast_on, plain)  # (as _knit's)
+    items: list[Action | _Plain] = []
+    for s, d, h, a, i, k, e in zip(
         ids,
         gen.dirs[chunk].tolist(),
         halves.tolist(),
         g.action[stitches].tolist(),
         g.instr[stitches].tolist(),
+        plain.tolist(),
+        empty.tolist(),
         strict=True,
     ):
         if a < 0 and i in _KNITTED_SET and s not in incs:
-            items.append(
-                (s, d or 1, gen.positions[s], numbers.knit_half_gauge if h else numbers.knit)
-            )
+            items.append((s, d or 1, gen.positions[s], k, e))
         else:
             items.append(_action(gen, ctx, s, d or 1, incs.get(s), h, a, i))
     acts = [a for a in items if isinstance(a, Action)]
@@ -812,7 +815,7 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
             gen.bed.set_rack(0)
         return
     acts = [  # per bed: every stitch an Action, so the parts split where the beds change
-        a if isinstance(a, Action) else Action(a[0], main=[partial(_knit, gen, ctx, *a)])
+        a if isinstance(a, Action) else Action(a[0], main=[partial(_knit, gen, ctx, *a[:4])])
         for a in items
     ]
     parts = actions.prepare_pass(gen, acts)  # one per run of stitches on the same bed
@@ -824,6 +827,10 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
         gen.bed.set_rack(0)
 
 
+_Plain = tuple[int, int, Pos, int, int]
+"""A plain knit of a mixed pass: stitch, direction, needle, stitch number, and the number
+of the loop it lays if its needle is empty (`empty_needle_number`)."""
+
 _KNITTED = np.array(
     [i for i, name in enumerate(INSTRUCTIONS) if name == "K" or name[0] in "FXS"], np.int64
 )
@@ -834,22 +841,41 @@ _KNITTED_SET = frozenset(_KNITTED.tolist())
 def _run_mixed(
     gen: _Gen,
     ctx: cast.Ctx,
-    items: list[Action | tuple[int, int, Pos, int]],
+    items: list[Action | _Plain],
     acts: list[Action],
     chunk: np.ndarray,
 ) -> None:
     """`run_actions` of one sub-pass whose plain knits are `items` tuples (`_action_pass`),
-    then the lead-out after the last main step."""
+    then the lead-out after the last main step. A run of plain knits is knitted in one
+    `Bed.knit_run`, which makes the ops and loop changes `_knit` makes for each."""
     run_by_depth([a.pre for a in acts])
+    run: list[_Plain] = []
     for it in items:
         if isinstance(it, Action):
+            if run:
+                _knit_run(gen, ctx, run)
+                run = []
             for f in it.main:
                 f()
         else:
-            _knit(gen, ctx, *it)
+            run.append(it)
+    if run:
+        _knit_run(gen, ctx, run)
     if items:
         _lead_out(gen, ctx, chunk)
     run_by_depth([a.post for a in acts])
+
+
+def _knit_run(gen: _Gen, ctx: cast.Ctx, run: list[_Plain]) -> None:
+    """`_knit` of every plain knit of `run`, in order, in one `Bed.knit_run`."""
+    gen.bed.knit_run(
+        [r[0] for r in run],
+        [r[1] for r in run],
+        [r[2] for r in run],
+        [r[3] for r in run],
+        [r[4] for r in run],
+        ctx.carrier,
+    )
 
 
 def _knit(gen: _Gen, ctx: cast.Ctx, s: int, d: int, pos: Pos, plain: int) -> None:
