@@ -12,7 +12,7 @@ from functools import cache
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
 from knitc.backends.dat_format import DatError, _encode_rows, encode, pack, render
@@ -223,9 +223,45 @@ def _plan(pb: Problem, carrier: float | None, m, fast: bool, monkeypatch) -> obj
         return str(exc)
 
 
+def _short_cut(pb: Problem, carrier: float | None, m) -> bool:
+    """Whether `plan` takes `_along_bed`'s short cut for the case (it does not decline)."""
+    from knitc.codegen import transfers
+
+    bed = make_bed(pb, carrier_at=carrier)
+    return bool(m[1] != m[2] and bed.loops.get(m[1], 0)) and (
+        transfers._along_bed(bed, *m) is not None
+    )
+
+
 @settings(max_examples=600, deadline=None, suppress_health_check=list(HealthCheck))
 @given(along_bed())
 def test_one_loop_along_its_bed_is_planned_as_the_planner_does(case) -> None:
     pb, carrier, m = case
+    event("short cut" if _short_cut(pb, carrier, m) else "declined")
     with pytest.MonkeyPatch.context() as mp:
         assert _plan(pb, carrier, m, True, mp) == _plan(pb, carrier, m, False, mp)
+
+
+def test_the_short_cut_plans_a_good_share_of_those_moves() -> None:
+    """The comparison above is worth something only if the short cut often answers."""
+    taken = []
+
+    @settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
+    @given(along_bed())
+    def count(case) -> None:
+        taken.append(_short_cut(*case))
+
+    count()
+    assert sum(taken) >= len(taken) // 10, f"{sum(taken)} of {len(taken)}"
+
+
+def test_a_bind_off_move_onto_its_neighbour_takes_the_short_cut() -> None:
+    # half gauge: the loop of f2 goes onto f4, which keeps its own (a stack), through b2
+    pb = Problem({("f", 0): 0, ("f", 2): 1, ("f", 4): 2, ("b", 5): 3}, {}, needles=40)
+    assert _short_cut(pb, None, (1, ("f", 2), ("f", 4)))
+    with pytest.MonkeyPatch.context() as mp:
+        steps = _plan(pb, None, (1, ("f", 2), ("f", 4)), True, mp)
+        assert steps == _plan(pb, None, (1, ("f", 2), ("f", 4)), False, mp)
+    from knitc.codegen.transfers import Xfer
+
+    assert steps == [Xfer(("f", 2), ("b", 2), 1, 0), Xfer(("b", 2), ("f", 4), 1, 2)]

@@ -584,18 +584,33 @@ def _stock_parser():
 
 
 def _tokens(lark, text: str) -> object:
-    """Every token of the parse (type, text, place), or the error it stops at."""
-    from lark import Token
+    """Every token the lexer hands the parser and every comment (type, text, place), then
+    the error the parse stops at, if any."""
     from lark.exceptions import UnexpectedInput
 
+    from knitc.frontend import parser as ps
+
+    seen: list[tuple] = []
+    keywords = lark.parser.lexer  # (`_ContextualKeywords`: what the parser reads)
+    lex = keywords.lex
+
+    def recording(lexer_state, parser_state):
+        for tok in lex(lexer_state, parser_state):
+            seen.append((tok.type, str(tok), tok.start_pos, tok.end_pos))
+            yield tok
+
+    keywords.lex = recording
+    comments: list = []
+    ps._comment_sink.append(comments)
     try:
-        tree = lark.parse(text)
+        lark.parse(text)
+        end: object = "parsed"
     except UnexpectedInput as exc:
-        return ("error", type(exc).__name__, exc.pos_in_stream, str(exc))
-    return [
-        (t.type, str(t), t.start_pos, t.end_pos)
-        for t in tree.scan_values(lambda v: isinstance(v, Token))
-    ]
+        end = ("error", type(exc).__name__, exc.pos_in_stream, str(exc))
+    finally:
+        ps._comment_sink.pop()
+        del keywords.lex
+    return seen, [(c.type, str(c), c.start_pos) for c in comments], end
 
 
 def _inputs() -> list[tuple[str, str]]:

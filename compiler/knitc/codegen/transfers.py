@@ -139,19 +139,21 @@ def _along_bed(bed: Bed, s: int, src: Pos, dst: Pos) -> list[Step] | None:
     no loop between its needle and its target, made without building the planner; None
     when the case is not that simple (the caller then plans it in full).
 
-    This is a bind-off's move, once per stitch: the full planner reads every loop on the
-    bed for it (its cycle, winding numbers, gauge and free range), which makes a cast-off
-    quadratic in the width of the course. For this case the planner's answer is known: no
+    This is a bind-off's move, once per stitch: the full planner sets up its model of every
+    loop on the bed for it (its cycle, winding numbers, gauge and free range), a few
+    milliseconds on a wide course. For this case the planner's answer is known: no
     loop changes order, so every winding is 0 and nothing rotates; one Shift round parks
     the loop at racking 0 on the other bed's hook (half gauge, when that hook is empty)
     or its slider, and brings it back at the racking of its displacement. What still needs
-    the whole bed is read in one pass: the gauge (the parity of every loop, as `_gauge`)
-    and that no loop waits on a slider. A carrier whose yarn the move would cross needs
-    parking, which the planner decides; so does a bed of mixed parity around a move that
-    keeps it."""
+    the whole bed is read in one tight pass: the gauge (the parity of every loop, as
+    `_gauge`) and that no loop waits on a slider; so a cast-off is still quadratic in the
+    course's width, but with a far smaller constant (a 500-wide tube: 2.7 -> 1.5 s). A
+    carrier whose yarn the move would cross needs parking, which the planner decides; so
+    does a bed of mixed parity around a move that keeps it."""
     b, x = src
-    if b not in BEDS or dst[0] != b or not 0 <= dst[1] < bed.prog.machine.needles:
-        return None
+    needles = bed.prog.machine.needles
+    if b not in BEDS or dst[0] != b or not (0 <= x < needles and 0 <= dst[1] < needles):
+        return None  # (a needle off the bed: the planner says so)
     d = dst[1] - x
     loops = bed.loops
     for n in range(min(x, dst[1]) + 1, max(x, dst[1])):

@@ -17,8 +17,12 @@ is rare in a design that parses. Keywords are the one difference between the sca
 Lark folds a keyword into the NAME terminal that matches it and re-types the token
 afterwards (its "unless" callback), and each state folds only the keywords it accepts, so
 each state gets that callback here from the root's keyword list (a dict, not a compiled
-scanner of its own). tests/test_parser.py holds the tokens to Lark's own lexer on every
-design, library module and test input of the repository.
+scanner of its own). A state that accepts a keyword but not NAME keeps the keyword on its
+own scanner; there the root returns NAME, which that state does not accept, and the state's
+scanner decides, as long as NAME comes first in the order and matches wherever the keyword's
+text stands (`_shareable` checks this of the grammar, and nothing is shared otherwise).
+tests/test_parser.py holds the token stream, comments included, to Lark's own lexer on
+every design, library module and fuzz input of the repository, whole and cut short.
 """
 
 from __future__ import annotations
@@ -54,12 +58,37 @@ def share_root_scanner(lexer: ContextualLexer) -> None:
         inner = cb.callback1 if isinstance(cb, CallChain) else cb
         if isinstance(inner, UnlessCallback):
             folded[name] = {t.pattern.value: t.name for t in inner.scanner.terminals}
+    if not _shareable(root, folded):
+        return  # (Lark's own lexer, a scanner per state)
     done: set[int] = set()
     for state_lexer in lexer.lexers.values():
         if id(state_lexer) in done or not isinstance(state_lexer, BasicLexer):
             continue
         done.add(id(state_lexer))
         _share(state_lexer, root_match, folded)
+
+
+def _shareable(root: BasicLexer, folded: dict[str, dict[str, str]]) -> bool:
+    """Whether the grammar is one the module docstring's argument holds for. A state that
+    accepts a keyword but not the NAME-like terminal the root folds it into finds it on its
+    own scanner, as Lark would, only if the root, where the keyword's text matches, returns
+    that terminal (or one the state's scanner also tries first): so the folding terminal
+    must come before its keywords in the terminals' order and match wherever their text
+    stands (no lookaround, no anchor). Keywords are re-typed here by exact text, as Lark's
+    full match of a keyword without flags does; and a user callback on a folding terminal
+    (chained with the keyword callback by Lark) is not re-made here."""
+    order = {t.name: i for i, t in enumerate(root.terminals)}
+    by_name = {t.name: t for t in root.terminals}
+    for name, keywords in folded.items():
+        regexp = by_name[name].pattern
+        if regexp.flags or any(c in regexp.value for c in ("(?", "$", "^", "\\b", "\\B")):
+            return False
+        if name in root.user_callbacks:
+            return False
+        for kind in keywords.values():
+            if by_name[kind].pattern.flags or order[kind] < order[name]:
+                return False
+    return True
 
 
 def _share(
@@ -74,11 +103,7 @@ def _share(
             mine = {v: k for v, k in keywords.items() if k in accepts}
             if mine:
                 callback[name] = _Keywords(mine)
-    for kind, f in lexer.user_callbacks.items():  # (as Lark's `_build_scanner` chains them)
-        if kind in callback:
-            callback[kind] = CallChain(callback[kind], f, lambda t, kind=kind: t.type == kind)
-        else:
-            callback[kind] = f
+    callback.update(lexer.user_callbacks)  # (none on a folding terminal: `_shareable`)
     lexer.callback = callback
 
     def match(text: Any, pos: int) -> tuple[str, str] | None:
