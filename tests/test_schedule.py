@@ -202,6 +202,16 @@ def test_every_layout_satisfies_the_slack_constraint(n):
         assert len(set(zip(b.tolist(), r.tolist(), strict=True))) == n
 
 
+@pytest.mark.parametrize("n", [1, 2, 5, 9, 16])
+def test_flat_layouts_lays_out_every_shape_at_once_as_one_by_one(n):
+    params = ir.flat_params(n)
+    beds, rels = ir.flat_layouts(n, np.array(params))
+    assert beds.shape == rels.shape == (len(params), n)
+    for p, b, r in zip(params, beds, rels, strict=True):
+        one_b, one_r = ir.flat_layout(n, *p)
+        assert b.tolist() == one_b.tolist() and r.tolist() == one_r.tolist()
+
+
 def test_ring_shapes_leave_out_their_corners():
     # N = 6, no nibble: 3 front left to right, 3 back right to left, facing each other
     bed, rel = ir.circular_shape(6, 0)
