@@ -155,7 +155,7 @@ class Bed:
             if k != number:
                 prog.stitch_number(k)
                 number = k
-            n = shared(pos) or needle(pos)
+            n = shared(pos) or needle(pos)  # (`needle`'s cache hit: these indices are ints)
             ops.append(
                 new(
                     Op,
