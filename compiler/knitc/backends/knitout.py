@@ -95,6 +95,13 @@ def write_knitout(
     bodies: dict[tuple, str] = {}  # op[:6] -> its text, for ops without a source comment
     lines: dict[int, dict[tuple, str]] = {}  # id(span) -> op[:6] -> the whole line
     tails: dict[int, str] = {}  # id(span) -> its comment; the ops keep the spans alive
+
+    def tail(op: Op) -> str:  # (only on a cache miss)
+        text = tails.get(id(op.span))
+        if text is None:
+            text = tails[id(op.span)] = source_comment(op)
+        return text
+
     for op in prog.ops:
         if op.kind not in _NEEDLE_KINDS:
             out += op_lines(
@@ -112,13 +119,7 @@ def write_knitout(
             and (m is None or (type(m) is Needle and type(m.index) is int))
             and (not cs or (len(cs) == 1 and type(cs[0]) is int))
         ):  # 1, 1.0 and True are one key but three texts: format such an op each time
-            body = str(op)
-            if source_comments and span is not None:
-                tail = tails.get(id(span))
-                if tail is None:
-                    tail = tails[id(span)] = source_comment(op)
-                body += tail
-            append(body)
+            append(str(op) + tail(op) if source_comments and span is not None else str(op))
             continue
         key = op[:6]  # kind, dir, needle, needle2, carriers, value
         if source_comments and span is not None:
@@ -127,13 +128,10 @@ def write_knitout(
                 mine = lines[id(span)] = {}
             line = mine.get(key)
             if line is None:
-                tail = tails.get(id(span))
-                if tail is None:
-                    tail = tails[id(span)] = source_comment(op)
                 text = bodies.get(key)
                 if text is None:
                     text = bodies[key] = str(op)
-                line = mine[key] = text + tail
+                line = mine[key] = text + tail(op)
             append(line)
         else:
             text = bodies.get(key)

@@ -759,6 +759,10 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
     # what `_action` asks of every stitch, read from the arrays once per pass
     halves = g.course_gauge[g.course[stitches]] == 2
     numbers = gen.opts.numbers
+    # each plain knit's stitch number, and the number of the loop it lays on an empty
+    # needle (`empty_needle_number`), for both routes below
+    plain = np.where(halves, numbers.knit_half_gauge, numbers.knit)
+    empty = np.where(g.wale_prev[stitches, 0] < 0, numbers.cast_on, plain)
     if (
         FAST_PASSES
         and not incs
@@ -769,15 +773,13 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
         # general route below does for it, each stitch's one main step in order and the
         # lead-out after the last, without an Action per stitch (most passes are plain);
         # the run as columns, each made at once (a tuple per stitch cost as much as a knit)
-        plain = np.where(halves, numbers.knit_half_gauge, numbers.knit)
-        first = g.wale_prev[stitches, 0] < 0  # (`empty_needle_number`)
         dirs = gen.dirs[chunk]
         gen.bed.knit_run(
             ids,
             np.where(dirs == 0, 1, dirs).tolist(),
             list(map(gen.positions.__getitem__, ids)),
             plain.tolist(),
-            np.where(first, numbers.cast_on, plain).tolist(),
+            empty.tolist(),
             ctx.carrier,
         )
         if ids:
@@ -790,8 +792,6 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
     # knitted in their place among the main steps, each run of them in one `Bed.knit_run`
     # (they have no pre or post steps, so the other stitches' steps run in the same order
     # as if they had an empty Action each).
-    plain = np.where(halves, numbers.knit_half_gauge, numbers.knit)
-    empty = np.where(g.wale_prev[stitches, 0] < 0, numbers.cast_on, plain)  # (as _knit's)
     items: list[Action | _Plain] = []
     for s, d, h, a, i, k, e in zip(
         ids,

@@ -155,8 +155,9 @@ def _along_bed(bed: Bed, s: int, src: Pos, dst: Pos) -> list[Step] | None:
     if b not in BEDS or dst[0] != b or not (0 <= x < needles and 0 <= dst[1] < needles):
         return None  # (a needle off the bed: the planner says so)
     d = dst[1] - x
+    lo, hi = (x, dst[1]) if d > 0 else (dst[1], x)
     loops = bed.loops
-    for n in range(min(x, dst[1]) + 1, max(x, dst[1])):
+    for n in range(lo + 1, hi):
         if loops.get((b, n), 0) > 0:
             return None  # a loop in the way: the planner says what to do (or why not)
     back = b == "b"
@@ -173,7 +174,6 @@ def _along_bed(bed: Bed, s: int, src: Pos, dst: Pos) -> list[Step] | None:
     reach = R - (R % 2 if parity is not None else 0)
     if abs(d) > reach:
         return None
-    lo, hi = (x, dst[1]) if x < dst[1] else (dst[1], x)
     if any(lo < cx < hi for cx in bed.carrier_at.values()):  # (else no carrier to read)
         for cx, anchor in _carriers(bed).values():
             if lo < cx < hi and anchor != src:

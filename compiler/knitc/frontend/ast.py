@@ -33,7 +33,7 @@ class Node:
         return hash(_key(self))
 
     def __repr__(self) -> str:
-        shown = _shown(type(self))
+        shown = _names(type(self), "repr")
         args = ", ".join(f"{name}={getattr(self, name)!r}" for name in shown)
         return f"{type(self).__qualname__}({args})"
 
@@ -54,23 +54,20 @@ class Node:
             stack.extend(reversed(n.children()))
 
 
-_COMPARED: dict[type, tuple[str, ...]] = {}
-_SHOWN: dict[type, tuple[str, ...]] = {}
+_NAMES: dict[tuple[type, str], tuple[str, ...]] = {}
+
+
+def _names(cls: type, flag: str) -> tuple[str, ...]:
+    """The fields of a node class whose `flag` ("compare" or "repr") is set, looked up once."""
+    names = _NAMES.get((cls, flag))
+    if names is None:
+        names = _NAMES[cls, flag] = tuple(f.name for f in fields(cls) if getattr(f, flag))
+    return names
 
 
 def _key(node: Node) -> tuple[Any, ...]:
     """The values that make a node's identity, as a dataclass's eq compares them."""
-    names = _COMPARED.get(type(node))
-    if names is None:
-        names = _COMPARED[type(node)] = tuple(f.name for f in fields(node) if f.compare)
-    return tuple([getattr(node, name) for name in names])
-
-
-def _shown(cls: type) -> tuple[str, ...]:
-    names = _SHOWN.get(cls)
-    if names is None:
-        names = _SHOWN[cls] = tuple(f.name for f in fields(cls) if f.repr)
-    return names
+    return tuple([getattr(node, name) for name in _names(type(node), "compare")])
 
 
 def _collect(value: Any, out: list[Node]) -> None:

@@ -53,11 +53,11 @@ def share_root_scanner(lexer: ContextualLexer) -> None:
     assert isinstance(root, BasicLexer)
     root_match = root.match
     _ = root.scanner  # (built now, and with it the root's keyword folds)
-    folded: dict[str, dict[str, str]] = {}
-    for name, cb in root.callback.items():
-        inner = cb.callback1 if isinstance(cb, CallChain) else cb
-        if isinstance(inner, UnlessCallback):
-            folded[name] = {t.pattern.value: t.name for t in inner.scanner.terminals}
+    folded = {  # (a folding terminal with a user callback has a CallChain: `_shareable`)
+        name: {t.pattern.value: t.name for t in cb.scanner.terminals}
+        for name, cb in root.callback.items()
+        if isinstance(cb, UnlessCallback)
+    }
     if not _shareable(root, folded):
         return  # (Lark's own lexer, a scanner per state)
     done: set[int] = set()
@@ -79,11 +79,11 @@ def _shareable(root: BasicLexer, folded: dict[str, dict[str, str]]) -> bool:
     (chained with the keyword callback by Lark) is not re-made here."""
     order = {t.name: i for i, t in enumerate(root.terminals)}
     by_name = {t.name: t for t in root.terminals}
+    if any(isinstance(cb, CallChain) for cb in root.callback.values()):
+        return False
     for name, keywords in folded.items():
         regexp = by_name[name].pattern
         if regexp.flags or any(c in regexp.value for c in ("(?", "$", "^", "\\b", "\\B")):
-            return False
-        if name in root.user_callbacks:
             return False
         for kind in keywords.values():
             if by_name[kind].pattern.flags or order[kind] < order[name]:

@@ -587,8 +587,9 @@ def layout_json(sched: Schedule, k: int) -> dict[str, Any]:
 
 
 def to_json(g: StitchGraph, sched: Schedule) -> dict[str, Any]:
-    """The dump of `knitc --emit schedule`: stats first (with the loop moves), then one record per slice (its
-    layout, offset and each cycle entry as [stitch, state, needle]) and the alignments."""
+    """The dump of `knitc --emit schedule`: stats first (with the loop moves), then one
+    record per slice (its layout, offset and each cycle entry as [stitch, state, needle])
+    and the alignments."""
     sl = sched.slices
     out = []
     for k in range(sl.n_slices):
