@@ -537,3 +537,75 @@ def test_op_problems_fast_paths_agree_with_the_full_check(
     m = Machine(max_carriers_per_op=per_op)
     got = op_problems(op, m, carrier_limit=carrier_limit)
     assert got == _full_problems(op, m, carrier_limit)
+
+
+_PASS_OPS = st.one_of(
+    st.tuples(
+        st.sampled_from(["knit", "tuck", "miss", "split", "xfer", "drop", "amiss"]),
+        st.sampled_from([-1, 1]),
+        st.sampled_from(["f", "b", "fs", "bs"]),
+        st.integers(0, 6),
+        st.sampled_from([(1,), (2,), (1, 2)]),
+    ),
+    st.tuples(st.just("rack"), st.sampled_from([-1, 0, 1, 0.5])),
+    st.tuples(st.sampled_from(["pause", "in", "stitch_number", "comment"])),
+)
+
+
+def _pass_op(t: tuple) -> Op:
+    kind = t[0]
+    if kind == "rack":
+        return Op("rack", value=t[1])
+    if len(t) == 1:
+        return Op(kind)
+    _, d, bed, i, cs = t
+    n = Needle(bed, i)
+    if kind == "xfer":
+        return Op(kind, needle=n, needle2=Needle("b" if bed in ("f", "fs") else "f", i))
+    if kind in ("drop", "amiss"):
+        return Op(kind, needle=n)
+    n2 = Needle("b" if bed in ("f", "fs") else "f", i) if kind == "split" else None
+    return Op(kind, d, n, n2, cs)
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.lists(_PASS_OPS, max_size=40))
+def test_pass_index_cuts_the_program_into_maximal_carriage_passes(raw):
+    """Each pass is a run of ops the carriage makes in one sweep (one class, direction,
+    carriers and racking; no needle twice; knits in the order of their direction), and a
+    pass ends only where the next op could not join it (or at a pause)."""
+    from knitc.codegen.machine import DIRECTED_KINDS, pass_index
+
+    ops = [_pass_op(t) for t in raw]
+    index = pass_index(ops)
+    assert len(index) == len(ops)
+    racking: float = 0
+    cur: dict | None = None  # the pass in progress
+    paused = False
+    last = -1
+    for op, p in zip(ops, index, strict=True):
+        if op.kind == "rack":
+            racking = op.value  # type: ignore[assignment]
+        carriage = op.kind in DIRECTED_KINDS or op.kind in ("xfer", "drop", "amiss")
+        if not carriage:
+            assert p == -1
+            paused |= op.kind == "pause"
+            continue
+        cls = "knit" if op.kind in DIRECTED_KINDS else "xfer" if op.kind == "xfer" else "drop"
+        key = (cls, op.dir if cls == "knit" else 0, op.carriers if cls == "knit" else (), racking)
+        needles = {op.needle, op.needle2} - {None}
+        pos = op.needle.position(racking)
+        fits = (
+            cur is not None
+            and not paused
+            and cur["key"] == key
+            and not (needles & cur["used"])
+            and (cls != "knit" or (pos - cur["pos"]) * op.dir >= 0)
+        )
+        assert p == (last if fits else last + 1)  # joins the pass exactly when it can
+        if not fits:
+            cur = {"key": key, "used": set()}
+        assert cur is not None
+        cur["used"] |= needles
+        cur["pos"] = pos
+        last, paused = p, False
