@@ -118,8 +118,11 @@ async def test_a_huge_design_stays_responsive(session: Session):
     assert d.code == "E313"
 
 
-BIG = "tube big {\n  length: 300\n  width: 220\n}\n"
-"""About 130,000 stitches: shaped while typing, so its front end takes a while."""
+BIG = "tube big {\n  length: 300\n  width: 245\n}\npattern big {\n  set P where wales(0:2:end)\n}\n"
+"""147,000 stitches and a pattern layer: shaped while typing (just under
+`analysis.FAST_STITCHES`), so its front end keeps the compiler thread busy for a while
+(several times the test's wait: a plain tube of 130,000 shaped too fast once shaping
+skipped the query coordinates of a design without patterns)."""
 
 
 async def test_a_cancelled_request_is_answered_as_cancelled(session: Session):
