@@ -539,6 +539,29 @@ def test_op_problems_fast_paths_agree_with_the_full_check(
     assert got == _full_problems(op, m, carrier_limit)
 
 
+_OP_VALUES = st.builds(
+    Op,
+    kind=st.sampled_from(["knit", "tuck", "miss", "split", "xfer", "in", "bad"]),
+    dir=st.sampled_from([-1, 0, 1, True]),
+    needle=st.sampled_from(_NEEDLE_VALUES),
+    needle2=st.sampled_from(_NEEDLE_VALUES[:3]),
+    carriers=st.sampled_from([(1,), (1,), (11,), (True,), [1], (1, 2)]),
+    value=st.sampled_from([None, None, 1]),
+    stitch=st.sampled_from([-2, -1, 0, 7, True]),
+    phase=st.sampled_from(["action", "action", "bogus"]),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(ops=st.lists(_OP_VALUES, max_size=12), per_op=st.sampled_from([0, 1, 2]))
+def test_verify_says_what_op_problems_says_of_each_op(ops, per_op):
+    """verify remembers the needles and carrier tuples it has checked (by identity, as code
+    generation shares them): its report is still op_problems' of every op, in order."""
+    m = Machine(max_carriers_per_op=per_op)
+    want = [f"op {i} ({op.kind}): {p}" for i, op in enumerate(ops) for p in op_problems(op, m)]
+    assert verify(MachineProgram(ops=ops, machine=m)) == want
+
+
 _PASS_OPS = st.one_of(
     st.tuples(
         st.sampled_from(["knit", "tuck", "miss", "split", "xfer", "drop", "amiss"]),

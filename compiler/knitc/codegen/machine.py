@@ -864,11 +864,59 @@ def verify(prog: MachineProgram) -> list[str]:
     if prog.position not in ("Left", "Center", "Right", "Keep"):
         problems.append(f"position {prog.position!r} is not Left, Center, Right or Keep")
     machine = prog.machine
+    # `op_problems`' plain-knit check, inlined, with the needle and carrier checks made
+    # once per object: code generation shares its Needle objects and carrier tuples, so a
+    # program of a million ops has a few hundred of each. The caches key the objects by
+    # identity (a value lookup would let Needle("f", True) pass as Needle("f", 1)) and hold
+    # them, so that no other object can take a remembered id.
+    needles_ok: dict[int, Needle] = {}
+    carriers_ok: dict[int, tuple[int, ...]] = {}
+    one = 1 <= machine.max_carriers_per_op
+    plain, phases = _PLAIN_KINDS, _PHASES
     for i, op in enumerate(prog.ops):
+        if type(op) is Op:
+            k, d, n, n2, cs, v, s, _, ph = op
+            if (
+                type(k) is str
+                and k in plain
+                and n2 is None
+                and v is None
+                and type(d) is int
+                and (d == 1 or d == -1)
+                and type(s) is int
+                and s >= -1
+                and type(ph) is str
+                and ph in phases
+                and one
+                and (id(n) in needles_ok or _needle_ok(n, needles_ok))
+                and (id(cs) in carriers_ok or _carriers_ok(cs, machine, carriers_ok))
+            ):
+                continue
         bad = op_problems(op, machine)
         if bad:
             problems += [f"op {i} ({op.kind}): {p}" for p in bad]
     return problems
+
+
+def _needle_ok(n: Any, seen: dict[int, Needle]) -> bool:
+    """`verify`: is `n` a well-formed needle (remembered in `seen` if so)?"""
+    ok = type(n) is Needle and type(n.bed) is str and n.bed in _BED_NAMES and type(n.index) is int
+    if ok:
+        seen[id(n)] = n
+    return ok
+
+
+def _carriers_ok(cs: Any, machine: Machine, seen: dict[int, tuple[int, ...]]) -> bool:
+    """`verify`: is `cs` the one carrier of a plain op (remembered in `seen` if so)?"""
+    ok = (
+        type(cs) is tuple
+        and len(cs) == 1
+        and type(cs[0]) is int
+        and 1 <= cs[0] <= machine.carriers
+    )
+    if ok:
+        seen[id(cs)] = cs
+    return ok
 
 
 # ---- stable JSON ------------------------------------------------------------------------------
