@@ -42,7 +42,9 @@ Checks, each a `Mismatch` kind that names the stitch, its node and its course:
   on one yarn in course order;
 - ``connection``: a connection with no wale in the design, with wales on one side only of
   a two-sided interface (a one-sided seam), or with a wale the fabric has no edge for;
-- ``pieces``: the fabric falls into another number of pieces than the design has garments.
+- ``pieces``: the fabric falls into another number of pieces than the design has garments;
+- ``yarn``: a stitch's loop is on another carrier than its design yarn's (stripes), or
+  two of the design's yarns share a carrier.
 """
 
 from __future__ import annotations
@@ -390,7 +392,47 @@ def check_fabric(result: Result, fab: Fabric, *, dropped_ok: Iterable[int] = ())
     bad += _rings(g, fab, ex)
     bad += _connections(result, ex)
     bad += _pieces(g, result.skeleton, ex)
+    bad += _yarns(result, fab, ex)
     return bad
+
+
+def _yarns(result: Result, fab: Fabric, ex: Expected) -> list[Mismatch]:
+    """Each stitch's loop is on a yarn of the carrier its design yarn holds: a yarn that
+    declares a carrier is on that one, and no two of the design's yarns share one."""
+    g, skel = result.graph, result.skeleton
+    assert g is not None and g.yarn is not None and skel is not None
+    declared = [y.carrier for y in skel.yarn_list]
+    bad: list[Mismatch] = []
+    used: dict[int, set[int]] = {}  # design yarn -> carriers its loops are on
+    for s, loop in sorted(ex.loop.items()):
+        y = fab.yarn[loop]
+        carrier = None if y is None else fab.yarns[y][0]
+        want = int(g.yarn[s])
+        if carrier is None:
+            continue
+        used.setdefault(want, set()).add(carrier)
+        asked = declared[want] if g.colourwork and want < len(declared) else None
+        if asked is not None and carrier != asked:
+            bad.append(
+                Mismatch(
+                    "yarn",
+                    s,
+                    f"{describe(g, s)} is on carrier {carrier}, not on {g.yarn_names[want]}'s "
+                    f"carrier {asked}",
+                )
+            )
+    for a, ca in used.items():
+        for b, cb in used.items():
+            if a < b and ca & cb:
+                bad.append(
+                    Mismatch(
+                        "yarn",
+                        -1,
+                        f"yarns {g.yarn_names[a]} and {g.yarn_names[b]} share carrier(s) "
+                        f"{sorted(ca & cb)}",
+                    )
+                )
+    return bad[:50]
 
 
 def _not_cast_off(result: Result) -> set[int]:

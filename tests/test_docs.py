@@ -34,6 +34,7 @@ PROPERTY_TABLES: dict[str, dict[str, sk.PropSpec]] = {
     "`split` properties": sk.SPLIT_PROPS,
     "interface properties": sk.ITF_PROPS,
     "`action` properties": sk.ACTION_PROPS,
+    "`yarn` properties": sk.YARN_PROPS,
 }
 """Heading of each property table in the docs -> the table it documents."""
 
@@ -130,6 +131,8 @@ def _number(x: float) -> str:
 def shown_default(name: str, spec: sk.PropSpec) -> str:
     """A property's default as the docs print it."""
     d = spec.default
+    if d is None and spec is sk.YARN_PROPS.get(name):
+        return "chosen by knitc"
     if d is None:
         return f"the machine's `{name}`"
     if isinstance(d, bool):

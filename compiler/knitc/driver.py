@@ -128,6 +128,7 @@ def _stitch_graph(r: Result) -> bool:
     from knitc.patterning.instructions import check_instructions
     from knitc.patterning.pattern import apply_patterns
     from knitc.shaping.shape import build_stitch_graph
+    from knitc.shaping.stripes import orient_stripes
 
     assert r.skeleton is not None
     if not r.skeleton.nodes:  # a header-only program would "knit" silently
@@ -143,7 +144,8 @@ def _stitch_graph(r: Result) -> bool:
     if graph is None:
         return False
     patterned = apply_patterns(r.skeleton, graph, r.diagnostics)
-    r.graph = check_instructions(patterned, r.diagnostics, racking=r.skeleton.machine.racking)
+    checked = check_instructions(patterned, r.diagnostics, racking=r.skeleton.machine.racking)
+    r.graph = orient_stripes(checked)
     return True
 
 
@@ -151,7 +153,8 @@ def _trace(r: Result) -> bool:
     from knitc.scheduling.tracing import trace_courses
 
     assert r.graph is not None
-    r.trace = trace_courses(r.graph)
+    assert r.skeleton is not None
+    r.trace = trace_courses(r.graph, carry_up=[y.carry_up for y in r.skeleton.yarn_list])
     return True
 
 
@@ -190,7 +193,8 @@ def _generate(r: Result) -> bool:
         r.schedule,
         r.trace,
         machine=machine,
-        carriers=m.carriers,
+        # `main`'s strands take these in order: its declared carrier first
+        carriers=tuple(dict.fromkeys((r.skeleton.yarn_list[0].carrier or m.carriers[0],) + m.carriers)),
         diags=r.diagnostics,
         options=options_from_skeleton(r.skeleton),
     )

@@ -90,6 +90,9 @@ class CodegenOptions:
     actions: Sequence = ()
     """The design's actions and the built-ins, ready to run (`patterning.actions.Program`),
     indexed by `StitchGraph.action` (`action_table`: each made at its first use)."""
+    yarn_carriers: Sequence[int | None] = ()
+    """The carrier each of the design's yarns asked for (`StitchGraph.yarn` numbers them;
+    None: any). The first is `main`'s, which takes the machine's carriers in order."""
 
     def cast_on_for(self, names: tuple[str, ...]) -> str:
         return next(
@@ -121,6 +124,7 @@ def options_from_skeleton(skel: sk.Skeleton) -> CodegenOptions:
             name: str(n.props.get("increase", "auto")) for name, n in skel.nodes.items()
         },
         actions=action_table(skel),
+        yarn_carriers=tuple(y.carrier for y in skel.yarn_list),
     )
 
 
@@ -305,9 +309,7 @@ def _run(gen: _Gen) -> None:
             yarn = int(t.yarn[v0])
             new = yarn not in gen.carrier_of
             if new:
-                if not free:
-                    raise Unsupported("more than 10 yarns would be in use at once")
-                gen.carrier_of[yarn] = free.pop(0)
+                gen.carrier_of[yarn] = _take_carrier(gen, free, int(g.yarn[ids[0]]))
             carrier = gen.carrier_of[yarn]
             ctx = gen.ctx(carrier, int(ids[0]))
             catch = []
@@ -348,6 +350,23 @@ def _run(gen: _Gen) -> None:
     leftover = [pos for pos, n in gen.bed.loops.items() if n > 0]
     if leftover:
         raise Unsupported(f"{len(leftover)} loops would be left on the needles")
+
+
+def _take_carrier(gen: _Gen, free: list[int], yarn: int) -> int:
+    """A carrier for a new strand of the design's yarn `yarn`: the one the yarn asked for
+    when it is free, else the first free one no other yarn asked for. In a one-yarn design
+    the strands take the machine's carriers in the order `free` lists them (a carrier
+    taken out goes last); with stripes a yarn comes back on its own carrier."""
+    asked = gen.opts.yarn_carriers
+    want = asked[yarn] if yarn < len(asked) and gen.g.colourwork else None
+    if want is not None and want in free:
+        free.remove(want)
+        return want
+    reserved = {c for i, c in enumerate(asked) if c is not None and i != yarn and i > 0}
+    for i, c in enumerate(free):
+        if c not in reserved:
+            return free.pop(i)
+    raise Unsupported("more than 10 yarns would be in use at once")
 
 
 def _lead_out(gen: _Gen, ctx: cast.Ctx, sub: np.ndarray) -> None:

@@ -258,6 +258,14 @@ class MachineDecl(Node):
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
+class YarnDecl(Node):
+    """`yarn red { carrier: 5 }`: a yarn the pattern layers can knit with (`knit red`)."""
+
+    name: Ident
+    props: tuple[Prop, ...]
+
+
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class NodeDecl(Node):
     """A shape primitive: `sheet`, `tube`, `joint` or `split`."""
 
@@ -342,12 +350,20 @@ class GridStmt(Node):
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
+class KnitStmt(Node):
+    """`knit red where q`: the selected stitches are knitted with the yarn `red`."""
+
+    yarn: Ident
+    where: Expr | None = None
+
+
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Let(Node):
     name: Ident
     value: Expr
 
 
-LayerStmt = SetStmt | UseStmt | ApplyStmt | GridStmt | Let
+LayerStmt = SetStmt | UseStmt | ApplyStmt | GridStmt | KnitStmt | Let
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
@@ -436,6 +452,7 @@ Item = (
     Import
     | ParamDecl
     | MachineDecl
+    | YarnDecl
     | NodeDecl
     | ItfStmt
     | Connect

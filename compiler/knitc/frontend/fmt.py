@@ -219,7 +219,7 @@ def _bodies(node: ast.Node) -> list[_Body]:
     which a comment belongs to them. Keys are object ids: equal nodes may occur twice."""
     s = node.span
     match node:
-        case ast.NodeDecl():
+        case ast.NodeDecl() | ast.YarnDecl():
             return [(id(node), node.name.span.end, s.end, node.props)]
         case ast.MachineDecl():
             return [(id(node), s.start, s.end, node.props)]
@@ -382,6 +382,8 @@ class _Printer:
                 return [f"{indent}param {node.name.name} = {ex.expr(node.value)}"]
             case ast.MachineDecl():
                 return self.prop_block(f"{indent}machine", id(node), node.props, indent)
+            case ast.YarnDecl():
+                return self.prop_block(f"{indent}yarn {node.name.name}", id(node), node.props, indent)
             case ast.NodeDecl():
                 return self.prop_block(
                     f"{indent}{node.kind} {node.name.name}", id(node), node.props, indent
@@ -440,6 +442,8 @@ class _Printer:
                 return [f"{indent}set {node.instr}{self.where(node.where, ex)}"]
             case ast.UseStmt():
                 return [f"{indent}use {node.action.name}{self.where(node.where, ex)}"]
+            case ast.KnitStmt():
+                return [f"{indent}knit {node.yarn.name}{self.where(node.where, ex)}"]
             case ast.ApplyStmt():
                 return [
                     f"{indent}apply {node.pattern.name}({ex.args(node.args)})"

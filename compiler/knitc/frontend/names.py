@@ -85,6 +85,8 @@ class NameChecker:
         self.node_decls = node_decls
         self.param_decls = param_decls
         self._props_block = props_block
+        self.yarns: set[str] = {sk.MAIN_YARN}
+        """Yarn names `knit NAME` may use (set by the resolver once it has read them)."""
 
     def layers(self, skel: sk.Skeleton) -> None:
         for item in self.module.items:
@@ -128,6 +130,16 @@ class NameChecker:
                         hint=_suggest(name, list(self.defs.actions) + list(BUILTIN_ACTIONS))
                         or "define it with `action NAME { ... }` or import it "
                         "(e.g. `import std.actions`)",
+                    )
+            elif isinstance(stmt, ast.KnitStmt):
+                name = stmt.yarn.name
+                if name not in self.yarns:
+                    self.diags.error(
+                        "E228",
+                        f"unknown yarn `{name}`",
+                        stmt.yarn.span,
+                        hint=_suggest(name, sorted(self.yarns))
+                        or f"declare it: `yarn {name} {{ carrier: 5 }}`",
                     )
             elif isinstance(stmt, ast.ApplyStmt):
                 self._check_apply(stmt, scope)

@@ -41,6 +41,7 @@ _KEYWORD_TYPES = frozenset(
         "KW_IMPORT",
         "KW_PARAM",
         "KW_MACHINE",
+        "KW_YARN",
         "KW_PATTERN",
         "KW_ACTION",
         "KW_OPEN",
@@ -50,6 +51,7 @@ _KEYWORD_TYPES = frozenset(
         "KW_APPLY",
         "KW_WHERE",
         "KW_LET",
+        "KW_KNIT",
         "NODE_KIND",
         "GRID_MODE",
         "STEP",
@@ -63,6 +65,7 @@ _TOP_LEVEL_WORDS = (
     "import",
     "param",
     "machine",
+    "yarn",
     "sheet",
     "tube",
     "joint",
@@ -231,6 +234,10 @@ class _ToAst(Transformer):
     def machine_decl(self, meta, ch):
         return ast.MachineDecl(ch[1], span=self._span(meta))
 
+    def yarn_decl(self, meta, ch):
+        _kw, name, props = ch
+        return ast.YarnDecl(self._ident(name), props, span=self._span(meta))
+
     def node_decl(self, meta, ch):
         kind, name, props = ch
         return ast.NodeDecl(str(kind), self._ident(name), props, span=self._span(meta))
@@ -307,6 +314,10 @@ class _ToAst(Transformer):
     def grid_stmt(self, meta, ch):
         mode, grid, where = ch
         return ast.GridStmt(str(mode), grid, where, span=self._span(meta))
+
+    def knit_stmt(self, meta, ch):
+        _kw, name, where = ch
+        return ast.KnitStmt(self._ident(name), where, span=self._span(meta))
 
     def let_stmt(self, meta, ch):
         _kw, name, value = ch
@@ -532,18 +543,19 @@ def _word(terminal: str) -> str:
     return _TERMINAL_WORDS.get(terminal, f"`{terminal.lower()}`")
 
 
-_LAYER_START = {"KW_SET", "KW_USE", "KW_APPLY", "GRID_MODE", "KW_LET"}
+_LAYER_START = {"KW_SET", "KW_USE", "KW_APPLY", "GRID_MODE", "KW_LET", "KW_KNIT"}
 _TOP_START = {
     "KW_IMPORT",
     "KW_PARAM",
     "KW_MACHINE",
+    "KW_YARN",
     "NODE_KIND",
     "KW_PATTERN",
     "KW_ACTION",
     "KW_SHAPER",
     "KW_START",
 }
-_LAYER_WORDS = ("set", "use", "apply", "draw", "stretch", "tile", "let")
+_LAYER_WORDS = ("set", "use", "apply", "knit", "draw", "stretch", "tile", "let")
 
 
 def _describe_expected(expected: set[str]) -> str:

@@ -77,6 +77,8 @@ class _Resolver:
             self.module, self.diags, self.defs, self.node_decls, self.param_decls, self._props_block
         )
         machine = self._machine([i for i in items if isinstance(i, ast.MachineDecl)])
+        yarns = self._yarns(machine)
+        self.names.yarns = set(yarns)
         values = {
             name: self._param_value(name, decl.name.span) for name, decl in self.param_decls.items()
         }
@@ -93,6 +95,7 @@ class _Resolver:
         skel = sk.Skeleton(machine, params, nodes, interfaces, [])
         self._topology(skel)
         skel.tainted = set(self.tainted)
+        skel.yarns = yarns
         self.names.layers(skel)
         d: ast.ActionDef | ast.ShaperDef | ast.PatternDef
         for d in self.defs.actions.values():
@@ -539,6 +542,51 @@ class _Resolver:
         values = self._props_block(decls[0].props, sk.MACHINE_PROPS, "`machine`") if decls else {}
         full = {k: values.get(k, s.default) for k, s in sk.MACHINE_PROPS.items()}
         return sk.MachineSettings(span=decls[0].span if decls else None, **full)
+
+    def _yarns(self, machine: sk.MachineSettings) -> dict[str, sk.Yarn]:
+        """The declared yarns, `main` first (declared or not), each carrier used once."""
+        decls: dict[str, ast.YarnDecl] = {}
+        for item in self.module.items:
+            if not isinstance(item, ast.YarnDecl):
+                continue
+            name = item.name.name
+            if name in decls:
+                self.diags.error(
+                    "E227",
+                    f"yarn `{name}` is declared twice",
+                    item.name.span,
+                    notes=[Note("first declared here", decls[name].name.span)],
+                )
+                continue
+            decls[name] = item
+        out: dict[str, sk.Yarn] = {}
+        owner: dict[int, str] = {}
+        for name in [sk.MAIN_YARN] + [n for n in decls if n != sk.MAIN_YARN]:
+            decl = decls.get(name)
+            values = (
+                self._props_block(decl.props, sk.YARN_PROPS, f"yarn `{name}`") if decl else {}
+            )
+            carrier = values.get("carrier")
+            if carrier is None and name == sk.MAIN_YARN:
+                carrier = machine.carriers[0]
+            carry = values.get("carry_up", sk.YARN_PROPS["carry_up"].default)
+            assert carrier is None or isinstance(carrier, int)
+            assert isinstance(carry, int)
+            first = owner.get(carrier) if carrier is not None else None
+            if first is not None and decl is not None:
+                held = decls.get(first)
+                self.diags.error(
+                    "E321",
+                    f"yarns `{first}` and `{name}` both use carrier {carrier}",
+                    next(p.span for p in decl.props if p.name.name == "carrier"),
+                    notes=[Note(f"`{first}` declared here", held.name.span)] if held else [],
+                    hint="a carrier holds one yarn: give each yarn its own carrier"
+                    + ("" if held else " (`main` takes the machine's first carrier)"),
+                )
+            if carrier is not None:
+                owner.setdefault(carrier, name)
+            out[name] = sk.Yarn(name, carrier, carry, decl.span if decl else None)
+        return out
 
     # -- interfaces, connections, starts
     def _itf(self, ref: ast.ItfRef, nodes: dict[str, sk.PrimNode]) -> sk.ItfId | None:

@@ -109,6 +109,28 @@ ITF_PROPS: dict[str, PropSpec] = {
     "cast_off": PropSpec("choice", "auto", ("auto",) + CAST_OFFS),
 }
 
+MAIN_YARN = "main"
+"""The design's own yarn: every stitch no `knit` statement gives another yarn."""
+
+YARN_PROPS: dict[str, PropSpec] = {
+    "carrier": PropSpec(
+        "int",
+        None,
+        min=1,
+        max=10,
+        doc="the carrier that holds the yarn (default: `main` takes the machine's first "
+        "carrier, other yarns the lowest carriers left)",
+    ),
+    "carry_up": PropSpec(
+        "int",
+        8,
+        min=0,
+        max=1000,
+        doc="courses the yarn may rest at the side between two of its stripes, carried up "
+        "the edge; a longer rest ends the yarn and brings it in again (0: always)",
+    ),
+}
+
 ACTION_PROPS: dict[str, PropSpec] = {
     "split_by_side": PropSpec("bool", False, doc="run the steps per bed side"),
     "transfer_back": PropSpec("bool", True, doc="return loops to their bed after each course"),
@@ -228,6 +250,17 @@ class Layer:
     origin: Span
 
 
+@dataclass(frozen=True)
+class Yarn:
+    """A yarn of the design (`yarn red { ... }`); `main` always exists."""
+
+    name: str
+    carrier: int | None
+    """Declared carrier, or None: code generation chooses one."""
+    carry_up: int
+    span: Span | None = None
+
+
 @dataclass
 class Skeleton:
     machine: MachineSettings
@@ -242,6 +275,15 @@ class Skeleton:
     shapers: dict[str, ast.ShaperDef] = field(default_factory=dict)
     tainted: set[str] = field(default_factory=set)
     """Nodes that already have errors; size checks skip them so errors don't cascade."""
+    yarns: dict[str, Yarn] = field(default_factory=dict)
+    """The design's yarns by name, `main` first (`yarn_list` numbers them)."""
+
+    @property
+    def yarn_list(self) -> list[Yarn]:
+        """The yarns in order: a stitch's yarn is an index into this list (0: `main`)."""
+        if not self.yarns:
+            return [Yarn(MAIN_YARN, self.machine.carriers[0], YARN_PROPS["carry_up"].default)]
+        return list(self.yarns.values())
 
     def graph(self) -> nx.MultiGraph:
         """Nodes and interfaces as one graph: node–interface edges and connection edges
@@ -612,6 +654,16 @@ def to_json(skel: Skeleton) -> dict[str, Any]:
             "cast_off": m.cast_off,
         },
         "params": {k: _value_json(v) for k, v in skel.params.items()},
+        **(
+            {
+                "yarns": [
+                    {"name": y.name, "carrier": y.carrier, "carry_up": y.carry_up}
+                    for y in skel.yarn_list
+                ]
+            }
+            if len(skel.yarns) > 1 or any(y.span is not None for y in skel.yarns.values())
+            else {}
+        ),
         "nodes": [
             {
                 "name": n.name,

@@ -56,6 +56,8 @@ def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> Sti
     if not skel.layers:  # (nothing to query: no stitch coordinates, no copies of the arrays)
         return g
     run = _Run(skel, g, diags, g.instr.copy(), g.action.copy(), g.origin.copy(), list(g.spans))
+    names = tuple(y.name for y in skel.yarn_list)
+    run.yarn_index = {name: i for i, name in enumerate(names)}
     before = [la for la in skel.layers if la.target == "before"]
     after = [la for la in skel.layers if la.target == "after"]
     nodes = [la for la in skel.layers if la.target not in ("before", "after")]
@@ -68,9 +70,59 @@ def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> Sti
         # the statements of one `pattern X { ... }` block share its `let`s
         env = run.envs.setdefault(layer.origin, QueryEnv(params=dict(skel.params), lets={}))
         run.stmts((layer.stmt,), node, env, None, 0)
+    if run.yarn is None:
+        return dataclasses.replace(
+            g, instr=run.instr, action=run.action, origin=run.origin, spans=run.spans
+        )
+    _one_yarn_per_course(run)
     return dataclasses.replace(
-        g, instr=run.instr, action=run.action, origin=run.origin, spans=run.spans
+        g,
+        instr=run.instr,
+        action=run.action,
+        origin=run.origin,
+        spans=run.spans,
+        yarn=run.yarn,
+        yarn_names=names,
     )
+
+
+def _one_yarn_per_course(run: _Run) -> None:
+    """Stripes: every course is knitted by one yarn. Several yarns in a course (fair isle,
+    intarsia) are not lowered yet: E711 at the statement that last changed a yarn in it."""
+    g, yarn, where = run.g, run.yarn, run.yarn_origin
+    assert yarn is not None and where is not None
+    if g.n_stitches == 0:
+        return
+    start = g.course_start
+    first = np.repeat(yarn[start], g.course_len)
+    mixed = np.unique(g.course[yarn != first])
+    by_stmt: dict[int, list[int]] = {}  # statement -> the mixed courses it last changed
+    for c in mixed.tolist():
+        ids = g.course_ids(c)
+        k = where[ids]
+        by_stmt.setdefault(int(k[k >= 0][-1]), []).append(c)
+    for k, courses in by_stmt.items():
+        c = courses[0]
+        ids = g.course_ids(c)
+        used = [run.g_names[int(y)] for y in np.unique(yarn[ids]).tolist()]
+        node = g.node_names[int(g.course_node[c])]
+        more = f" (and {len(courses) - 1} more course{'s' * (len(courses) > 2)})"
+        run.diags.error(
+            "E711",
+            f"course {c - _node_first_course(g, c)} of `{node}` would be knitted with "
+            + " and ".join(f"`{u}`" for u in used)
+            + (more if len(courses) > 1 else ""),
+            run.spans[k],
+            hint="a course is knitted with one yarn (stripes): select whole courses, e.g. "
+            "`where courses(0:4)`; several yarns in one course (fair isle, intarsia) are "
+            "not supported yet",
+        )
+
+
+def _node_first_course(g: StitchGraph, c: int) -> int:
+    """The first course of course c's node (courses count from it in messages)."""
+    node = g.course_node[c]
+    return int(np.argmax(g.course_node == node))
 
 
 @dataclasses.dataclass
@@ -88,6 +140,15 @@ class _Run:
     span_ids: dict = dataclasses.field(default_factory=dict)
     chain: list = dataclasses.field(default_factory=list)
     """The `apply` statements being expanded, outermost first."""
+    yarn: np.ndarray | None = None
+    """The yarn of each stitch, once a `knit` statement has run (`StitchGraph.yarn`)."""
+    yarn_origin: np.ndarray | None = None
+    """The `spans` index of the `knit` statement that last set each stitch's yarn."""
+    yarn_index: dict = dataclasses.field(default_factory=dict)
+
+    @property
+    def g_names(self) -> list[str]:
+        return list(self.yarn_index)
     applied: int = 0
     """`apply` statements expanded so far (`MAX_APPLIES`)."""
 
@@ -98,12 +159,16 @@ class _Run:
         """Record `span` (a pattern statement) as the origin of the stitches in `mask`;
         inside applied definitions, chained to the `apply` statements it expanded from
         (`Span.parent`), the designer's own `apply` outermost."""
+        self.origin[mask] = self.span_id(span)
+
+    def span_id(self, span: Span) -> int:
+        """The `spans` index of `span` as expanded from the `apply`s in progress."""
         chain = (*self.chain, span)
         k = self.span_ids.get(chain)
         if k is None:
             k = self.span_ids[chain] = len(self.spans)
             self.spans.append(Span.expanded(chain))
-        self.origin[mask] = k
+        return k
 
     def stmts(
         self, body, node: int | None, env: QueryEnv, within: np.ndarray | None, depth: int
@@ -119,8 +184,24 @@ class _Run:
                 self.apply(stmt, node, env, within, depth)
             elif isinstance(stmt, ast.UseStmt):
                 actions.attach(self, stmt, node, env, within)
+            elif isinstance(stmt, ast.KnitStmt):
+                self.knit_with(stmt, node, env, within)
             elif isinstance(stmt, ast.GridStmt):
                 drawing.apply_grid(self, stmt, node, env, within)
+
+    def knit_with(
+        self, stmt: ast.KnitStmt, node: int | None, env: QueryEnv, within: np.ndarray | None
+    ) -> None:
+        """`knit YARN where Q`: the selected stitches take the yarn."""
+        k = self.yarn_index.get(stmt.yarn.name)
+        if k is None:
+            return  # the resolver reported it (E228)
+        mask = self.select(node, stmt.where, env, within)
+        if self.yarn is None or self.yarn_origin is None:
+            self.yarn = np.zeros(self.g.n_stitches, np.int8)
+            self.yarn_origin = np.full(self.g.n_stitches, -1, np.int32)
+        self.yarn[mask] = k
+        self.yarn_origin[mask] = self.span_id(stmt.span)
 
     def select(
         self, node: int | None, where, env: QueryEnv, within: np.ndarray | None

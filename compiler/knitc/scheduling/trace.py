@@ -10,7 +10,10 @@ Flags:
 - TUCK_PREV: tuck before this visit (the yarn turned: short-row ends, ch. 5.4 and 6.6);
 - JUMP: the previous visit is neither a course nor a wale neighbour, but an adjacent needle
   of the same node (a ring closing across beds, or a continuity course meeting its next
-  course); anything farther starts a new yarn instead.
+  course); anything farther starts a new yarn instead;
+- CARRY: the yarn rested at the side while other yarns knitted stripes, and is carried up
+  the edge to this visit, which starts a course at the end where the yarn stopped
+  (`carried`).
 """
 
 from __future__ import annotations
@@ -22,8 +25,8 @@ import numpy as np
 
 from knitc.shaping.stitch_graph import StitchGraph
 
-START, END, TUCK_PREV, JUMP = 1, 2, 4, 8
-FLAG_NAMES = {START: "start", END: "end", TUCK_PREV: "tuck", JUMP: "jump"}
+START, END, TUCK_PREV, JUMP, CARRY = 1, 2, 4, 8, 16
+FLAG_NAMES = {START: "start", END: "end", TUCK_PREV: "tuck", JUMP: "jump", CARRY: "carry"}
 
 
 @dataclass
@@ -90,6 +93,18 @@ def near(g: StitchGraph, a: int, b: int) -> bool:
         and g.side[a] == g.side[b]
         and abs(int(g.needle[a]) - int(g.needle[b])) <= 1
     )
+
+
+def carried(g: StitchGraph, a: int, b: int) -> bool:
+    """A justified carry up the side from stitch a, a course's last, to stitch b, a later
+    course's first, in the same node: b is at the fabric's edge where a stopped (next to
+    it, or, after a round of a tube, next to where that round began)."""
+    if g.node[a] != g.node[b] or g.cnext[a] >= 0 and not g.course_circular[g.course[a]]:
+        return False
+    if near(g, a, b):
+        return True
+    c = int(g.course[a])
+    return bool(g.course_circular[c]) and near(g, int(g.course_start[c]), b)
 
 
 def carriage_dirs(g: StitchGraph, stitch: np.ndarray, yarn: np.ndarray) -> np.ndarray:
@@ -166,7 +181,8 @@ def verify(g: StitchGraph, t: Trace) -> list[str]:
         a, b = st[:-1], st[1:]
         same_yarn = yn[:-1] == yn[1:]
         jump = (fl[1:] & JUMP) != 0
-        ok = _neighbours(g, a, b) | jump
+        carry = (fl[1:] & CARRY) != 0
+        ok = _neighbours(g, a, b) | jump | carry
         bad = same_yarn & ~ok
         if np.any(bad):
             i = int(np.nonzero(bad)[0][0])
@@ -179,6 +195,13 @@ def verify(g: StitchGraph, t: Trace) -> list[str]:
                 problems.append(
                     f"yarn {int(yn[i])} jumps from stitch {int(a[i])} to "
                     f"{int(b[i])}, which is not a neighbouring needle"
+                )
+                break
+        for i in np.nonzero(same_yarn & carry)[0][:10000]:
+            if not carried(g, int(a[i]), int(b[i])):
+                problems.append(
+                    f"yarn {int(yn[i])} is carried from stitch {int(a[i])} to "
+                    f"{int(b[i])}, which does not start at the edge where it stopped"
                 )
                 break
     starts = np.count_nonzero(t.flags & START)

@@ -17,7 +17,7 @@ Two tracers produce the same IR:
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -27,8 +27,12 @@ from knitc.shaping.stitch_graph import COURSE_KINDS, StitchGraph
 _TURNING = (COURSE_KINDS.index("short_row"), COURSE_KINDS.index("continuity"))
 
 
-def trace_courses(g: StitchGraph) -> tr.Trace:
-    """Single-pass tracing in knitting order (see the module docstring)."""
+def trace_courses(g: StitchGraph, carry_up: Sequence[int] = ()) -> tr.Trace:
+    """Single-pass tracing in knitting order (see the module docstring). With stripes
+    (`StitchGraph.yarn`), `carry_up[y]` is how many courses yarn y may rest at the side
+    (`_trace_stripes`)."""
+    if g.colourwork:
+        return _trace_stripes(g, carry_up)
     n = g.n_stitches
     yarn = np.zeros(n, np.int16)
     flags = np.zeros(n, np.uint8)
@@ -67,6 +71,74 @@ def trace_courses(g: StitchGraph) -> tr.Trace:
             flags[first] |= tr.TUCK_PREV
     tr.start_end_flags(yarn, flags)
     return tr.Trace(stitch, yarn, dirs, flags, passes=1, method="courses")
+
+
+def _trace_stripes(g: StitchGraph, carry_up: Sequence[int]) -> tr.Trace:
+    """`trace_courses` for a striped design: a course continues a strand (a length of yarn
+    on one carrier) of its own yarn. The strand that knitted the node's last course goes on
+    as usual; one resting while other yarns knit is carried up the side (CARRY) when the
+    course starts at the end where it stopped and it has rested at most `carry_up` of the
+    node's courses. Otherwise it has ended, and a new strand of that yarn starts."""
+    n = g.n_stitches
+    assert g.yarn is not None
+    design = g.yarn
+    yarn = np.zeros(n, np.int16)
+    flags = np.zeros(n, np.uint8)
+    last_of: list[int] = []  # strand -> its last stitch
+    of_yarn: list[int] = []  # strand -> the design's yarn it is
+    rested_from: list[int] = []  # strand -> the node's course count at its last course
+    node_courses: dict[int, int] = {}  # node -> courses knitted so far
+    node_strand: dict[int, int] = {}  # node -> the strand of its last course
+    joins: list[tuple[int, int]] = []
+    for c in range(g.n_courses):
+        ids = g.course_ids(c)
+        if ids.size == 0:
+            continue
+        first = int(ids[0])
+        want, node = int(design[first]), int(g.course_node[c])
+        done = node_courses.get(node, 0)
+        chosen, flag = -1, 0
+        for y in range(len(last_of) - 1, -1, -1):  # most recent strand first
+            if of_yarn[y] != want:
+                continue
+            a = last_of[y]
+            resting = int(g.node[a]) == node and node_strand.get(node, y) != y
+            if not resting:
+                if tr.neighbours(g, a, first):
+                    chosen, flag = y, 0
+                    break
+                if tr.near(g, a, first):
+                    chosen, flag = y, tr.JUMP
+                    break
+            elif done - rested_from[y] <= _at(carry_up, want) and tr.carried(g, a, first):
+                chosen, flag = y, tr.CARRY
+                break
+        if chosen < 0:
+            chosen = len(last_of)
+            last_of.append(-1)
+            of_yarn.append(want)
+            rested_from.append(0)
+        else:
+            flags[first] |= flag
+            if flag != tr.CARRY and g.course_kind[c] in _TURNING and not g.course_circular[c]:
+                joins.append((first, last_of[chosen]))
+        yarn[ids] = chosen
+        last_of[chosen] = int(ids[-1])
+        node_courses[node] = done + 1
+        rested_from[chosen] = done + 1
+        node_strand[node] = chosen
+    stitch = np.arange(n, dtype=np.int32)
+    dirs = tr.carriage_dirs(g, stitch, yarn)
+    for first, prev in joins:
+        if g.side[first] == g.side[prev] and dirs[first] != dirs[prev]:
+            flags[first] |= tr.TUCK_PREV
+    tr.start_end_flags(yarn, flags)
+    return tr.Trace(stitch, yarn, dirs, flags, passes=1, method="courses")
+
+
+def _at(values: Sequence[int], i: int) -> int:
+    """values[i], or the default carry when the caller gave none for yarn i."""
+    return values[i] if i < len(values) else 8
 
 
 def trace_rules(

@@ -85,9 +85,22 @@ class StitchGraph:
     warning can point at the designer's line with notes into the definitions
     (`diagnostics.at_designer`)."""
 
+    yarn: np.ndarray | None = None
+    """int8 per stitch: the yarn that knits it, an index into `yarn_names` (0: the design's
+    own yarn, `main`); set by `knit YARN where ...` pattern statements."""
+    yarn_names: tuple[str, ...] = ("main",)
+
     def __post_init__(self) -> None:
         if self.origin is None:
             self.origin = np.full(self.node.shape[0], NONE, np.int32)
+        if self.yarn is None:
+            self.yarn = np.zeros(self.node.shape[0], np.int8)
+
+    @property
+    def colourwork(self) -> bool:
+        """Whether any stitch is knitted with another yarn than `main`."""
+        assert self.yarn is not None
+        return bool(self.yarn.any())
 
     @property
     def n_stitches(self) -> int:
@@ -206,7 +219,7 @@ def to_json(g: StitchGraph, *, stitches: bool = True) -> dict[str, Any]:
             return [[int(x) for x in row if x >= 0] for row in a]
 
         wn, wp = pairs(g.wale_next), pairs(g.wale_prev)
-        assert g.origin is not None  # filled in by __post_init__
+        assert g.origin is not None and g.yarn is not None  # filled in by __post_init__
         out["stitches"] = [
             {
                 "id": i,
@@ -222,6 +235,7 @@ def to_json(g: StitchGraph, *, stitches: bool = True) -> dict[str, Any]:
                 "action": int(g.action[i]),
                 "span": g.spans[int(g.span[i])].to_json(),
                 **({"origin": g.spans[int(g.origin[i])].to_json()} if g.origin[i] >= 0 else {}),
+                **({"yarn": g.yarn_names[int(g.yarn[i])]} if g.yarn[i] else {}),
             }
             for i in range(g.n_stitches)
         ]
