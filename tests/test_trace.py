@@ -104,7 +104,7 @@ def check_trace(g: sg.StitchGraph, t: tr.Trace) -> list[str]:
         out.append("yarn ids are not 0..n-1")
     if not set(np.unique(t.dir)) <= {-1, 1}:
         out.append("a direction is not +-1")
-    if np.any(t.flags & ~np.uint8(15)):
+    if np.any(t.flags & ~np.uint8(31)):
         out.append("unknown flag bits")
     for y in range(t.n_yarns):
         idx = yarn_visits(t, y)
@@ -115,8 +115,13 @@ def check_trace(g: sg.StitchGraph, t: tr.Trace) -> list[str]:
             out.append(f"yarn {y}: END is not exactly on its last visit")
         st = t.stitch[idx]
         for k in range(1, len(idx)):
-            if not neighbours(g, int(st[k - 1]), int(st[k])) and not fl[k] & tr.JUMP:
-                out.append(f"yarn {y}: unflagged jump {int(st[k - 1])} -> {int(st[k])}")
+            a, b = int(st[k - 1]), int(st[k])
+            if fl[k] & tr.CARRY:
+                if tr.carried(g, a, b) < 0:
+                    out.append(f"yarn {y}: carried {a} -> {b} from another edge")
+                    break
+            elif not neighbours(g, a, b) and not fl[k] & tr.JUMP:
+                out.append(f"yarn {y}: unflagged jump {a} -> {b}")
                 break
     return out
 

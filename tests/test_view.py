@@ -308,3 +308,24 @@ def test_layout_turns_the_sock_at_its_heel():
 
     angle = np.degrees(np.arccos(np.clip(axis("leg") @ axis("foot"), -1, 1)))
     assert angle > 30  # the foot goes off at an angle to the leg
+
+
+def test_chart_fills_the_stitches_of_another_yarn_with_its_colour(tmp_path: Path):
+    text = (
+        "yarn red { carrier: 5 }\nyarn wool { carrier: 6 }\n"
+        "sheet s { length: 9, width: 8 }\n"
+        "pattern s {\n  knit red where courses(2:3)\n  knit wool where courses(6)\n}\n"
+    )
+    inp = _load(_write(tmp_path, text, "stripes.knit"))
+    g = inp.graph
+    assert g is not None and g.yarn is not None
+    ch = chart.build(g)
+    img = _png(chart.render(inp, "png"))
+    red, wool = (np.nonzero(g.yarn == g.yarn_names.index(n))[0] for n in ("red", "wool"))
+    assert red.size == 16 and wool.size == 8
+    for s in red:  # a yarn named for a colour is drawn in it
+        assert img.getpixel(ch.pixel(int(s))) == (255, 0, 0)
+    for s in wool:  # another, in the palette's colour for the design's second other yarn
+        assert img.getpixel(ch.pixel(int(s))) == figure.rgb8(figure.YARN_PALETTE[1])
+    for s in np.nonzero(g.yarn == 0)[0]:
+        assert img.getpixel(ch.pixel(int(s))) == figure.rgb8(figure.INSTR_COLOURS["K"])

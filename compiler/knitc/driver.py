@@ -194,7 +194,9 @@ def _generate(r: Result) -> bool:
         r.trace,
         machine=machine,
         # `main`'s strands take these in order: its declared carrier first
-        carriers=tuple(dict.fromkeys((r.skeleton.yarn_list[0].carrier or m.carriers[0],) + m.carriers)),
+        carriers=tuple(
+            dict.fromkeys((r.skeleton.yarn_list[0].carrier or m.carriers[0],) + m.carriers)
+        ),
         diags=r.diagnostics,
         options=options_from_skeleton(r.skeleton),
     )

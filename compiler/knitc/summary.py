@@ -86,6 +86,11 @@ def summary_line(result: Result, output: str) -> str:
     if result.trace is not None:
         yarns = len(set(result.trace.yarn.tolist()))
         parts.append(f"{yarns} yarn{'s' * (yarns != 1)}")
+        g = result.graph
+        if g is not None and g.colourwork:  # stripes: say which, and the ends they leave
+            assert g.yarn is not None
+            used = sorted({g.yarn_names[y] for y in set(g.yarn.tolist())})
+            parts[-1] += f" ({', '.join(used)}), {2 * yarns} ends to weave in"
     if result.program is not None:
         w = workload(result.program)
         parts.append(f"{w.passes} carriage passes on {w.needles} needles")

@@ -309,7 +309,8 @@ def _run(gen: _Gen) -> None:
             yarn = int(t.yarn[v0])
             new = yarn not in gen.carrier_of
             if new:
-                gen.carrier_of[yarn] = _take_carrier(gen, free, int(g.yarn[ids[0]]))
+                design = 0 if g.yarn is None else int(g.yarn[ids[0]])
+                gen.carrier_of[yarn] = _take_carrier(gen, free, design)
             carrier = gen.carrier_of[yarn]
             ctx = gen.ctx(carrier, int(ids[0]))
             catch = []

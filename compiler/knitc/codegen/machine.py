@@ -909,10 +909,7 @@ def _needle_ok(n: Any, seen: dict[int, Needle]) -> bool:
 def _carriers_ok(cs: Any, machine: Machine, seen: dict[int, tuple[int, ...]]) -> bool:
     """`verify`: is `cs` the one carrier of a plain op (remembered in `seen` if so)?"""
     ok = (
-        type(cs) is tuple
-        and len(cs) == 1
-        and type(cs[0]) is int
-        and 1 <= cs[0] <= machine.carriers
+        type(cs) is tuple and len(cs) == 1 and type(cs[0]) is int and 1 <= cs[0] <= machine.carriers
     )
     if ok:
         seen[id(cs)] = cs

@@ -383,7 +383,9 @@ class _Printer:
             case ast.MachineDecl():
                 return self.prop_block(f"{indent}machine", id(node), node.props, indent)
             case ast.YarnDecl():
-                return self.prop_block(f"{indent}yarn {node.name.name}", id(node), node.props, indent)
+                return self.prop_block(
+                    f"{indent}yarn {node.name.name}", id(node), node.props, indent
+                )
             case ast.NodeDecl():
                 return self.prop_block(
                     f"{indent}{node.kind} {node.name.name}", id(node), node.props, indent

@@ -563,9 +563,7 @@ class _Resolver:
         owner: dict[int, str] = {}
         for name in [sk.MAIN_YARN] + [n for n in decls if n != sk.MAIN_YARN]:
             decl = decls.get(name)
-            values = (
-                self._props_block(decl.props, sk.YARN_PROPS, f"yarn `{name}`") if decl else {}
-            )
+            values = self._props_block(decl.props, sk.YARN_PROPS, f"yarn `{name}`") if decl else {}
             carrier = values.get("carrier")
             if carrier is None and name == sk.MAIN_YARN:
                 carrier = machine.carriers[0]

@@ -119,7 +119,7 @@ YARN_PROPS: dict[str, PropSpec] = {
         min=1,
         max=10,
         doc="the carrier that holds the yarn (default: `main` takes the machine's first "
-        "carrier, other yarns the lowest carriers left)",
+        "carrier, other yarns the next free one)",
     ),
     "carry_up": PropSpec(
         "int",

@@ -149,6 +149,7 @@ class _Run:
     @property
     def g_names(self) -> list[str]:
         return list(self.yarn_index)
+
     applied: int = 0
     """`apply` statements expanded so far (`MAX_APPLIES`)."""
 

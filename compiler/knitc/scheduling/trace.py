@@ -95,16 +95,30 @@ def near(g: StitchGraph, a: int, b: int) -> bool:
     )
 
 
-def carried(g: StitchGraph, a: int, b: int) -> bool:
-    """A justified carry up the side from stitch a, a course's last, to stitch b, a later
-    course's first, in the same node: b is at the fabric's edge where a stopped (next to
-    it, or, after a round of a tube, next to where that round began)."""
-    if g.node[a] != g.node[b] or g.cnext[a] >= 0 and not g.course_circular[g.course[a]]:
-        return False
-    if near(g, a, b):
-        return True
-    c = int(g.course[a])
-    return bool(g.course_circular[c]) and near(g, int(g.course_start[c]), b)
+def carried(g: StitchGraph, a: int, b: int) -> int:
+    """How many courses a yarn rests when it is carried up the side from stitch a, the last
+    of a course, to stitch b, the first of a later one (-1: not a carry). b must start at
+    the fabric's edge where a stopped: down its wale to a's course, b lands on a or next to
+    it (or, after a round of a tube, next to where that round began). The wale may cross
+    into another node (a brim into a body)."""
+    ca, cb = int(g.course[a]), int(g.course[b])
+    circular = bool(g.course_circular[ca])
+    if cb <= ca or (not circular and g.cnext[a] >= 0):
+        return -1
+    if b != int(g.course_start[cb]) and (g.course_circular[cb] or g.cprev[b] >= 0):
+        return -1
+    x, steps = b, 0
+    while int(g.course[x]) > ca:
+        x = int(g.wale_prev[x, 0])
+        steps += 1
+        if x < 0:
+            return -1
+    if int(g.course[x]) != ca:
+        return -1
+    first = int(g.course_start[ca])
+    if x == a or neighbours(g, a, x) or (circular and (x == first or neighbours(g, first, x))):
+        return steps - 1
+    return -1
 
 
 def carriage_dirs(g: StitchGraph, stitch: np.ndarray, yarn: np.ndarray) -> np.ndarray:
@@ -198,7 +212,7 @@ def verify(g: StitchGraph, t: Trace) -> list[str]:
                 )
                 break
         for i in np.nonzero(same_yarn & carry)[0][:10000]:
-            if not carried(g, int(a[i]), int(b[i])):
+            if carried(g, int(a[i]), int(b[i])) < 0:
                 problems.append(
                     f"yarn {int(yn[i])} is carried from stitch {int(a[i])} to "
                     f"{int(b[i])}, which does not start at the edge where it stopped"

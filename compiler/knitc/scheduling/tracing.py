@@ -75,10 +75,10 @@ def trace_courses(g: StitchGraph, carry_up: Sequence[int] = ()) -> tr.Trace:
 
 def _trace_stripes(g: StitchGraph, carry_up: Sequence[int]) -> tr.Trace:
     """`trace_courses` for a striped design: a course continues a strand (a length of yarn
-    on one carrier) of its own yarn. The strand that knitted the node's last course goes on
-    as usual; one resting while other yarns knit is carried up the side (CARRY) when the
-    course starts at the end where it stopped and it has rested at most `carry_up` of the
-    node's courses. Otherwise it has ended, and a new strand of that yarn starts."""
+    on one carrier) of its own yarn. The strand that knitted the course below goes on as
+    usual; one that rested while other yarns knitted is carried up the side (CARRY) when
+    the course starts at the edge where it stopped and it rested at most `carry_up`
+    courses (`trace.carried`). Otherwise a new strand of that yarn starts."""
     n = g.n_stitches
     assert g.yarn is not None
     design = g.yarn
@@ -86,47 +86,38 @@ def _trace_stripes(g: StitchGraph, carry_up: Sequence[int]) -> tr.Trace:
     flags = np.zeros(n, np.uint8)
     last_of: list[int] = []  # strand -> its last stitch
     of_yarn: list[int] = []  # strand -> the design's yarn it is
-    rested_from: list[int] = []  # strand -> the node's course count at its last course
-    node_courses: dict[int, int] = {}  # node -> courses knitted so far
-    node_strand: dict[int, int] = {}  # node -> the strand of its last course
     joins: list[tuple[int, int]] = []
     for c in range(g.n_courses):
         ids = g.course_ids(c)
         if ids.size == 0:
             continue
         first = int(ids[0])
-        want, node = int(design[first]), int(g.course_node[c])
-        done = node_courses.get(node, 0)
+        want = int(design[first])
+        below = int(g.course[g.wale_prev[first, 0]]) if g.wale_prev[first, 0] >= 0 else -1
         chosen, flag = -1, 0
         for y in range(len(last_of) - 1, -1, -1):  # most recent strand first
             if of_yarn[y] != want:
                 continue
             a = last_of[y]
-            resting = int(g.node[a]) == node and node_strand.get(node, y) != y
-            if not resting:
-                if tr.neighbours(g, a, first):
-                    chosen, flag = y, 0
-                    break
-                if tr.near(g, a, first):
-                    chosen, flag = y, tr.JUMP
-                    break
-            elif done - rested_from[y] <= _at(carry_up, want) and tr.carried(g, a, first):
+            if tr.neighbours(g, a, first):
+                chosen, flag = y, 0
+                break
+            if tr.near(g, a, first) and (below < 0 or int(g.course[a]) == below):
+                chosen, flag = y, tr.JUMP
+                break
+            if 0 <= tr.carried(g, a, first) <= _at(carry_up, want):
                 chosen, flag = y, tr.CARRY
                 break
         if chosen < 0:
             chosen = len(last_of)
             last_of.append(-1)
             of_yarn.append(want)
-            rested_from.append(0)
         else:
             flags[first] |= flag
             if flag != tr.CARRY and g.course_kind[c] in _TURNING and not g.course_circular[c]:
                 joins.append((first, last_of[chosen]))
         yarn[ids] = chosen
         last_of[chosen] = int(ids[-1])
-        node_courses[node] = done + 1
-        rested_from[chosen] = done + 1
-        node_strand[node] = chosen
     stitch = np.arange(n, dtype=np.int32)
     dirs = tr.carriage_dirs(g, stitch, yarn)
     for first, prev in joins:

@@ -13,7 +13,9 @@ The picture is one raster, painted with numpy from one small sprite per instruct
 (`cell` pixels square) and placed on the figure pixel for pixel (`figimage`), so a 100k
 stitch design paints in a fraction of a second, the PNG has exactly the colours of the
 table, and `Chart.pixel` says where each stitch is (the tests probe it). Hazards of the
-simulation outline their stitch in red. A Knitout file's chart is drawn from the loops its
+simulation outline their stitch in red. Stitches knitted with another yarn than `main`
+(stripes) are filled with that yarn's colour (`figure.yarn_colour`), their symbol kept.
+A Knitout file's chart is drawn from the loops its
 program makes (`view.loops`): one chart per yarn, rows by wale depth.
 """
 
@@ -60,14 +62,16 @@ class Piece:
 
 @dataclass
 class Chart:
-    """Where everything is: `code[r, c]` (0 empty, else 1 + instruction) of the canvas,
-    each stitch's canvas cell (`srow`, `scol`), the charts, and the pixel scale."""
+    """Where everything is: `code[r, c]` (0 empty, else 1 + instruction + 17 * yarn) of
+    the canvas, each stitch's canvas cell (`srow`, `scol`), the charts, the pixel scale,
+    and the fill colour of each yarn but `main`."""
 
     code: np.ndarray
     srow: np.ndarray
     scol: np.ndarray
     pieces: list[Piece]
     cell: int
+    yarn_fills: tuple[str, ...] = ()
 
     @property
     def width_px(self) -> int:
@@ -158,28 +162,36 @@ def build(g: StitchGraph, *, rows_by_depth: bool = False) -> Chart:
         if fit == cell:
             break
         cell = fit
-    code = np.zeros((max(total_h, 1), max(total_w, 1)), np.uint8)
+    k = len(INSTRUCTIONS)
+    yarns = g.yarn if g.colourwork and g.yarn is not None else None
+    wide = yarns is not None and (int(yarns.max()) + 1) * k >= 255
+    code = np.zeros((max(total_h, 1), max(total_w, 1)), np.uint16 if wide else np.uint8)
     node = g.node.astype(np.int64)
     top = np.array([placed.get(v, (0, 0))[0] for v in range(nn)], np.int64)
     left = np.array([placed.get(v, (0, 0))[1] for v in range(nn)], np.int64)
     srow = top[node] + (rows[node] - 1 - row)
     scol = left[node] + col
-    code[srow, scol] = g.instr.astype(np.uint8) + 1
+    code[srow, scol] = g.instr.astype(code.dtype) + 1
+    fills: tuple[str, ...] = ()
+    if yarns is not None:
+        code[srow, scol] += yarns.astype(code.dtype) * k
+        fills = tuple(figure.yarn_colour(name, i) for i, name in enumerate(g.yarn_names) if i > 0)
     pieces = [
         Piece(
             g.node_names[v], placed[v][0], placed[v][1], int(rows[v]), int(cols[v]), int(faces[v])
         )
         for v in present
     ]
-    return Chart(code, srow, scol, pieces, cell)
+    return Chart(code, srow, scol, pieces, cell, fills)
 
 
-def _sprites(cell: int) -> np.ndarray:
-    """(1 + len(INSTRUCTIONS), cell, cell, 3) uint8: the painted square of each code
-    (0: empty). Fill colour, a symbol in dark ink when the cell is big enough for one, and
-    a one-pixel grid line on the right and bottom edges."""
+def _sprites(cell: int, yarn_fills: tuple[str, ...] = ()) -> np.ndarray:
+    """(1 + len(INSTRUCTIONS) * yarns, cell, cell, 3) uint8: the painted square of each
+    code (0: empty). Fill colour (the instruction's, or another yarn's), a symbol in dark
+    ink when the cell is big enough for one, and a one-pixel grid line on the right and
+    bottom edges."""
     k = len(INSTRUCTIONS)
-    out = np.empty((k + 1, cell, cell, 3), np.uint8)
+    out = np.empty((k * (1 + len(yarn_fills)) + 1, cell, cell, 3), np.uint8)
     out[0] = figure.rgb8(figure.BACKGROUND)
     v, u = np.mgrid[0:cell, 0:cell].astype(np.float64)
     u = (u + 0.5) / cell  # 0 left .. 1 right
@@ -212,21 +224,22 @@ def _sprites(cell: int) -> np.ndarray:
         symbols[name] = slash | back
     ink = np.array([40, 40, 40], np.uint8)
     grid = np.array([190, 190, 190], np.uint8)
-    for i, name in enumerate(INSTRUCTIONS):
-        sq = out[i + 1]
-        sq[:] = figure.rgb8(figure.INSTR_COLOURS[name])
-        if cell >= 6:
-            sq[symbols[name]] = ink
-        if cell >= 4:
-            sq[:, -1] = grid
-            sq[-1, :] = grid
+    for y, fill in enumerate((None, *yarn_fills)):
+        for i, name in enumerate(INSTRUCTIONS):
+            sq = out[1 + i + k * y]
+            sq[:] = figure.rgb8(fill or figure.INSTR_COLOURS[name])
+            if cell >= 6:
+                sq[symbols[name]] = ink
+            if cell >= 4:
+                sq[:, -1] = grid
+                sq[-1, :] = grid
     return out
 
 
 def paint(ch: Chart, hazards: np.ndarray) -> np.ndarray:
     """The canvas as an RGB raster (rows down), hazard stitches outlined in red."""
     s = ch.cell
-    sprites = _sprites(s)
+    sprites = _sprites(s, ch.yarn_fills)
     h, w = ch.code.shape
     img = sprites[ch.code].transpose(0, 2, 1, 3, 4).reshape(h * s, w * s, 3)
     if hazards.size:
@@ -288,6 +301,13 @@ def render(input: ViewInput, fmt: str) -> bytes:
         )
         for i in present
     ]
+    if ch.yarn_fills:
+        used = set(np.unique(g.yarn).tolist()) if g.yarn is not None else set()
+        handles += [
+            Patch(facecolor=fill, edgecolor="#666666", linewidth=0.5, label=f"yarn {name}")
+            for y, (name, fill) in enumerate(zip(g.yarn_names[1:], ch.yarn_fills), 1)
+            if y in used
+        ]
     if hz.size:
         handles.append(
             Patch(
@@ -302,7 +322,7 @@ def render(input: ViewInput, fmt: str) -> bytes:
         loc="upper right",
         bbox_to_anchor=(1 - 8 / W, 1 - TOP_PX / H),
         frameon=False,
-        title="instructions",
+        title="instructions, yarns" if ch.yarn_fills else "instructions",
     )
     name = input.path.rsplit("/", 1)[-1]
     k = len(ch.pieces)

@@ -1,0 +1,263 @@
+"""Stripes: `yarn` declarations and `knit YARN where Q`, through every stage.
+
+Properties on random striped sheets and tubes (derandomized, as every property test here):
+
+- the stripes pass (`shaping.stripes.orient_stripes`) only renumbers: the graph verifies,
+  every course keeps its stitches (needle, side, yarn, instruction) and its wales, and a
+  flat course of a yarn that knitted before in its node starts at the end nearest to where
+  that yarn stopped;
+- tracing gives each course one strand of its own yarn; a strand that rested is carried
+  (CARRY) no more than its yarn's `carry_up` courses, and the trace verifies.
+
+Then a set of designs, compiled to the end, runs clean on the independent machine and
+knits the designed fabric, each loop on its yarn's carrier (`fabric.check_fabric`), and
+round-trips through DAT.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, note, settings
+from hypothesis import strategies as st
+
+from fabric import assert_knits_as_designed
+from knitc.backends.dat_format import decode, encode, rows
+from knitc.backends.dat_write import to_dat
+from knitc.diagnostics import Diagnostics
+from knitc.driver import compile_source
+from knitc.patterning.pattern import apply_patterns
+from knitc.scheduling import trace as tr
+from knitc.shaping import stitch_graph as sg
+from knitc.shaping.shape import build_stitch_graph
+from knitc.shaping.stripes import orient_stripes
+
+# ---- random striped designs -------------------------------------------------------------------
+
+YARNS = ("red", "blue", "gold")
+
+
+@st.composite
+def striped(draw) -> str:
+    """A sheet or tube (maybe widening) and stripes of 1 to 3 yarns in random runs."""
+    kind = draw(st.sampled_from(["sheet", "tube"]))
+    length = draw(st.integers(3, 24))
+    w0 = draw(st.integers(3, 10))
+    w1 = draw(st.sampled_from([w0, w0, w0 + 2, max(w0 - 2, 3)]))
+    width = f"{w0}" if w0 == w1 else f"[0: {w0}, 1: {w1}]"
+    n_yarns = draw(st.integers(1, 3))
+    carry = [draw(st.integers(0, 6)) for _ in range(n_yarns)]
+    lines = [
+        f"yarn {YARNS[i]} {{ carrier: {5 + i}, carry_up: {carry[i]} }}" for i in range(n_yarns)
+    ]
+    lines.append(f"{kind} p {{ length: {length}, width: {width} }}")
+    lines.append("pattern p {")
+    c = 0
+    while c < length:
+        run = draw(st.integers(1, 5))
+        yarn = draw(st.sampled_from(("main",) + YARNS[:n_yarns]))
+        if yarn != "main":
+            lines.append(f"  knit {yarn} where courses({c}:{min(c + run, length) - 1})")
+        c += run
+    lines.append("}")
+    return "\n".join(lines) + "\n"
+
+
+def _unoriented(text: str) -> tuple[sg.StitchGraph, sg.StitchGraph, object]:
+    """(the patterned graph before the stripes pass, after it, the result)."""
+    r = compile_source(text, "stripes.knit", until="trace")
+    assert r.graph is not None and r.skeleton is not None, r.diagnostics.render()
+    diags = Diagnostics()
+    built = build_stitch_graph(r.skeleton, diags)
+    assert built is not None
+    return apply_patterns(r.skeleton, built, diags), r.graph, r
+
+
+@settings(max_examples=60, deadline=None)
+@given(text=striped())
+def test_the_stripes_pass_only_renumbers_and_starts_each_course_at_its_carrier(text):
+    note(text)
+    before, after, _ = _unoriented(text)
+    assert orient_stripes(before).n_stitches == after.n_stitches
+    assert sg.verify(after) == []
+    assert before.yarn is not None and after.yarn is not None
+    # each course keeps its stitches and the same wales between them, by (needle, side)
+    for c in range(after.n_courses):
+        a, b = before.course_ids(c), after.course_ids(c)
+        key = lambda g, ids: sorted(  # noqa: E731
+            zip(
+                g.needle[ids].tolist(),
+                g.side[ids].tolist(),
+                g.yarn[ids].tolist(),
+                g.instr[ids].tolist(),
+                strict=True,
+            )
+        )
+        assert key(before, a) == key(after, b)
+    where_b = {
+        s: (int(before.course[s]), int(before.needle[s]), int(before.side[s]))
+        for s in range(before.n_stitches)
+    }
+    where_a = {
+        s: (int(after.course[s]), int(after.needle[s]), int(after.side[s]))
+        for s in range(after.n_stitches)
+    }
+    wales = lambda g, where: sorted(  # noqa: E731
+        (where[s], where[int(p)]) for s in range(g.n_stitches) for p in g.wale_prev[s] if p >= 0
+    )
+    assert wales(before, where_b) == wales(after, where_a)
+    # a flat course starts at the end nearest to where its yarn stopped in the node
+    rest: dict[tuple[int, int], int] = {}  # (yarn, node) -> needle where it stopped
+    for c in range(after.n_courses):
+        ids = after.course_ids(c)
+        y, node = int(after.yarn[ids[0]]), int(after.course_node[c])
+        at = rest.get((y, node))
+        if at is not None and ids.size > 1 and not after.course_circular[c]:
+            first, last = int(after.needle[ids[0]]), int(after.needle[ids[-1]])
+            assert abs(first - at) <= abs(last - at), f"course {c} starts away from its yarn"
+        rest[(y, node)] = int(after.needle[ids[-1]])
+
+
+@settings(max_examples=60, deadline=None)
+@given(text=striped())
+def test_each_course_is_one_strand_of_its_yarn_carried_at_most_carry_up(text):
+    note(text)
+    _, g, r = _unoriented(text)
+    t = r.trace
+    assert t is not None and g.yarn is not None
+    assert tr.verify(g, t) == []
+    carry_up = {y.name: y.carry_up for y in r.skeleton.yarn_list}
+    strand_yarn: dict[int, int] = {}
+    for c in range(g.n_courses):
+        ids = g.course_ids(c)
+        strands = set(t.yarn[ids].tolist())
+        assert len(strands) == 1, f"course {c} is knitted by strands {strands}"
+        (s,) = strands
+        assert strand_yarn.setdefault(s, int(g.yarn[ids[0]])) == int(g.yarn[ids[0]])
+    order = np.lexsort((np.arange(t.n_visits), t.yarn))
+    for i, j in zip(order[:-1], order[1:], strict=True):
+        if t.yarn[i] == t.yarn[j] and t.flags[j] & tr.CARRY:
+            rested = tr.carried(g, int(t.stitch[i]), int(t.stitch[j]))
+            name = g.yarn_names[int(g.yarn[t.stitch[j]])]
+            assert 0 <= rested <= carry_up[name]
+
+
+# ---- designs through the whole pipeline ---------------------------------------------------------
+
+DESIGNS = {
+    # a sheet whose stripes leave each yarn at the far side: courses are turned
+    "sheet-odd": """
+yarn red { carrier: 5 }
+sheet s { length: 24, width: 12 }
+pattern s {
+  knit red where courses(3:5)
+  knit red where courses(9)
+  knit red where courses(15:19)
+}
+""",
+    # a tube: three yarns, one resting past its carry_up (ended and brought in again)
+    "tube-three": """
+yarn red { carrier: 5 }
+yarn blue { carrier: 6, carry_up: 2 }
+tube t { length: 30, width: 10 }
+pattern t {
+  knit red where courses(4:7)
+  knit blue where courses(8:9)
+  knit red where courses(10:11)
+  knit blue where courses(18:22)
+}
+""",
+    # a widening sheet, stripes over its increases
+    "sheet-shaped": """
+yarn red { carrier: 5 }
+sheet s { length: 30, width: [0: 10, 1: 16] }
+pattern s {
+  knit red where courses(0.2:0.3)
+  knit red where courses(0.5:0.55)
+}
+""",
+    # a ribbed brim into a body: `main` rests across the connection
+    "brim-body": """
+import std.stitches (rib)
+yarn coral { carrier: 5 }
+tube brim { length: 6, width: 10, gauge: half }
+tube body { length: 16, width: 10 }
+brim.top -> body.bottom
+pattern brim {
+  apply rib(1, 1)
+}
+pattern body {
+  knit coral where courses(0:3)
+  knit coral where courses(8:11)
+}
+""",
+    # `main` on a carrier of its own, another yarn on the next free one (the machine's)
+    "declared-main": """
+machine { carriers: [3] }
+yarn main { carrier: 4 }
+yarn red {}
+sheet s { length: 12, width: 8 }
+pattern s {
+  knit red where courses(4:7)
+}
+""",
+}
+
+
+def _compiled(name: str):
+    r = compile_source(DESIGNS[name], f"{name}.knit", until="machine")
+    assert r.program is not None and not r.diagnostics.has_errors, r.diagnostics.render()
+    return r
+
+
+def test_striped_designs_knit_as_designed_on_the_independent_machine():
+    results = [_compiled(n) for n in DESIGNS]
+    assert_knits_as_designed(results, names=list(DESIGNS))
+
+
+@pytest.mark.parametrize("name", sorted(DESIGNS))
+def test_striped_designs_round_trip_through_dat(name):
+    image = to_dat(_compiled(name).program)
+    assert rows(decode(encode(image))) == rows(image)
+
+
+def test_yarns_are_brought_in_once_and_carried_between_their_stripes():
+    from knitc.backends.knitout import write_knitout
+
+    text = write_knitout(_compiled("brim-body").program)
+    ins = [
+        line.split(";")[0].strip()
+        for line in text.splitlines()
+        if line.split(" ")[0] in ("in", "inhook", "out", "outhook")
+    ]
+    assert ins == ["inhook 3", "in 5", "outhook 5", "outhook 3"]
+
+
+def test_a_yarn_resting_longer_than_carry_up_is_ended_and_brought_in_again():
+    r = _compiled("tube-three")
+    assert r.trace is not None and r.graph is not None
+    blue = r.graph.yarn_names.index("blue")
+    strands = {int(s) for s in r.trace.yarn[r.graph.yarn[r.trace.stitch] == blue].tolist()}
+    assert len(strands) == 2  # rested 8 courses, carry_up 2
+
+
+def test_declared_carriers_are_used_and_main_may_declare_its_own():
+    from knitc.backends.knitout import write_knitout
+
+    text = write_knitout(_compiled("declared-main").program)
+    assert "inhook 4" in text and "\nin 3 " in text
+
+
+def test_a_one_yarn_design_dumps_no_yarns():
+    from knitc.driver import emit_json
+
+    r = compile_source("sheet s { length: 3, width: 3 }\n", "one.knit", until="stitch-graph")
+    assert "yarn" not in str(emit_json(r, "stitch-graph"))
+    assert "yarns" not in str(emit_json(r, "skeleton"))
+
+
+def test_the_summary_counts_the_ends_to_weave_in():
+    from knitc.summary import summary_line
+
+    line = summary_line(_compiled("tube-three"), "t.k")
+    assert "4 yarns (blue, main, red), 8 ends to weave in" in line
