@@ -474,7 +474,9 @@ def _unattached(g: StitchGraph, fab: Fabric, ex: Expected, dropped_ok: set[int])
 
 def _rings(g: StitchGraph, fab: Fabric, ex: Expected) -> list[Mismatch]:
     """Each tubular course is one closed ring: its loops on one yarn, in course order,
-    crossing between the beds exactly twice around, as many as designed."""
+    crossing between the beds exactly twice around, as many as designed. A course of
+    several yarns (fair isle) is one ring per yarn: each yarn's loops on one yarn of the
+    fabric, in course order."""
     out = []
     for c in np.nonzero(g.course_circular)[0].tolist():
         ids = g.course_ids(c).tolist()
@@ -482,6 +484,24 @@ def _rings(g: StitchGraph, fab: Fabric, ex: Expected) -> list[Mismatch]:
         if len(own) < len(ids):
             continue  # missed stitches (and their reports) make no ring of their own
         first = ids[0]
+        assert g.yarn is not None
+        design = g.yarn[ids].tolist()
+        if len(set(design)) > 1:  # fair isle: each yarn's own stitches, in course order
+            for y in sorted(set(design)):
+                mine = [ex.loop[s] for s, d in zip(ids, design, strict=True) if d == y]
+                pos = [fab.yarn_pos.get(x, -1) for x in mine]
+                if len({fab.yarn[x] for x in mine}) != 1 or any(
+                    b <= a for a, b in zip(pos, pos[1:])
+                ):
+                    out.append(
+                        Mismatch(
+                            "ring",
+                            first,
+                            f"the {g.yarn_names[y]} stitches of tubular course {c} are not "
+                            "knitted by one yarn in course order",
+                        )
+                    )
+            continue
         yarns = {fab.yarn[x] for x in own}
         pos = [fab.yarn_pos.get(x, -1) for x in own]
         beds = [int(ex.home[s]) for s in ids]

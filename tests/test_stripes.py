@@ -191,6 +191,38 @@ pattern body {
   knit coral where courses(8:11)
 }
 """,
+    # fair isle on a sheet: a checked band of two yarns per course
+    "fair-sheet": """
+yarn red { carrier: 5 }
+sheet s { length: 20, width: 16 }
+pattern s {
+  knit red where courses(4:9) and filter((wale + course) % 4 == 0)
+}
+""",
+    # fair isle on a tube, two bands of different yarns, then a stripe of one of them
+    "fair-tube": """
+yarn red { carrier: 5 }
+yarn blue { carrier: 6 }
+tube t { length: 24, width: 12 }
+pattern t {
+  knit red where courses(4:9) and filter(wale % 3 == 0)
+  knit blue where courses(12:15) and filter(wale % 4 == 1)
+  knit red where courses(16:19)
+}
+""",
+    # fair isle over a narrowing tube (the decreases are transfers between courses), three
+    # yarns in some courses, and a stripe of a yarn while it also floats in fair isle
+    "fair-narrowing": """
+yarn red { carrier: 5 }
+yarn gold { carrier: 7 }
+tube t { length: 30, width: [0: 16, 1: 10] }
+pattern t {
+  knit red where courses(3:12) and filter(wale % 4 == 0)
+  knit gold where courses(6:9) and filter(wale % 4 == 2)
+  knit red where courses(14:15)
+  knit red where courses(17:20) and filter(wale % 2 == 0)
+}
+""",
     # `main` on a carrier of its own, another yarn on the next free one (the machine's)
     "declared-main": """
 machine { carriers: [3] }
@@ -260,4 +292,39 @@ def test_the_summary_counts_the_ends_to_weave_in():
     from knitc.summary import summary_line
 
     line = summary_line(_compiled("tube-three"), "t.k")
-    assert "4 yarns (blue, main, red), 8 ends to weave in" in line
+    assert "3 yarns (blue, main, red), 8 ends to weave in" in line  # blue brought in twice
+
+
+def test_a_fair_isle_yarn_knits_its_stitches_and_floats_behind_the_others():
+    from knitc.codegen.machine import Needle
+
+    r = _compiled("fair-sheet")
+    g, prog = r.graph, r.program
+    assert g is not None and g.yarn is not None and prog is not None
+    red = set(np.nonzero(g.yarn == g.yarn_names.index("red"))[0].tolist())
+    knits = [op for op in prog.ops if op.kind == "knit" and op.phase == "action"]
+    by_stitch = {op.stitch: op for op in knits}
+    for s in range(g.n_stitches):
+        assert by_stitch[s].carriers == ((5,) if s in red else (3,))
+    # each red pass knits only red stitches, in the course's direction, skipping the others
+    course = g.course[min(red)]
+    passes = [op for op in knits if g.course[op.stitch] == course]
+    red_pass = [op for op in passes if op.carriers == (5,)]
+    assert {op.dir for op in red_pass} == {by_stitch[int(g.course_start[course])].dir}
+    assert all(isinstance(op.needle, Needle) for op in red_pass)
+    assert passes.index(red_pass[0]) > passes.index(
+        next(op for op in passes if op.carriers == (3,))
+    )
+
+
+def test_a_long_fair_isle_float_is_a_warning_at_the_knit_statement():
+    text = """
+yarn red { carrier: 5 }
+sheet s { length: 12, width: 60 }
+pattern s {
+  knit red where courses(4:7) and filter(wale % 30 == 5)
+}
+"""
+    r = compile_source(text, "long.knit", until="machine")
+    floats = [d for d in r.diagnostics if d.code == "W803"]
+    assert floats and all(d.span is not None and d.span.line == 5 for d in floats)

@@ -87,10 +87,15 @@ def summary_line(result: Result, output: str) -> str:
         yarns = len(set(result.trace.yarn.tolist()))
         parts.append(f"{yarns} yarn{'s' * (yarns != 1)}")
         g = result.graph
-        if g is not None and g.colourwork:  # stripes: say which, and the ends they leave
+        if g is not None and g.colourwork:  # colour: say which, and the ends they leave
             assert g.yarn is not None
             used = sorted({g.yarn_names[y] for y in set(g.yarn.tolist())})
-            parts[-1] += f" ({', '.join(used)}), {2 * yarns} ends to weave in"
+            # every yarn brought in (a strand of the trace, or a fair isle yarn) is a
+            # length of yarn with two ends
+            ins = yarns
+            if result.program is not None:
+                ins = sum(op.kind in ("in", "inhook") for op in result.program.ops)
+            parts[-1] = f"{len(used)} yarns ({', '.join(used)}), {2 * ins} ends to weave in"
     if result.program is not None:
         w = workload(result.program)
         parts.append(f"{w.passes} carriage passes on {w.needles} needles")

@@ -10,10 +10,12 @@ the `Needle` of its position (`needle`), never a name to parse back.
 from __future__ import annotations
 
 from collections import defaultdict
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from knitc.codegen.machine import MachineProgram, Needle, Op
 from knitc.shaping.stitch_graph import StitchGraph
+from knitc.source import Span
 
 Pos = tuple[str, int]
 BEDS = ("f", "b")
@@ -129,17 +131,20 @@ class Bed:
         numbers: list[int],
         empty_numbers: list[int],
         carrier: int,
+        span_of: Mapping[int, Span | None] | None = None,
     ) -> None:
         """A plain pass, stitch by stitch in order: each stitch knitted in its direction on
         its needle through the needle's loops at its stitch number, or on an empty needle
         tucked at its empty-needle number. The ops and the loop model are those of
         `prog.stitch_number` and `stitch_op` per stitch; made here in one loop, from one
-        list per column, because most passes of every design are plain (issue 16)."""
+        list per column, because most passes of every design are plain (issue 16).
+        `span_of` gives the ops of these stitches other source spans (a fair isle yarn's
+        knits point at the `knit YARN` statement)."""
         prog, loops, where, at = self.prog, self.loops, self.where, self.at
         carriers = (carrier,)
         if self._span_of is None:
             self.span(0)
-        spans = self._span_of
+        spans: Mapping[int, Span | None] | list[Span] | None = span_of or self._span_of
         assert spans is not None
         number = None
         pos = None

@@ -93,6 +93,8 @@ class CodegenOptions:
     yarn_carriers: Sequence[int | None] = ()
     """The carrier each of the design's yarns asked for (`StitchGraph.yarn` numbers them;
     None: any). The first is `main`'s, which takes the machine's carriers in order."""
+    yarn_carry_up: Sequence[int] = ()
+    """How many courses each yarn may rest at the side (`yarn { carry_up }`)."""
 
     def cast_on_for(self, names: tuple[str, ...]) -> str:
         return next(
@@ -125,6 +127,7 @@ def options_from_skeleton(skel: sk.Skeleton) -> CodegenOptions:
         },
         actions=action_table(skel),
         yarn_carriers=tuple(y.carrier for y in skel.yarn_list),
+        yarn_carry_up=tuple(y.carry_up for y in skel.yarn_list),
     )
 
 
@@ -184,6 +187,20 @@ class _Gen:
     """Per visit, the carriage direction on the needles the schedule knits it on (the
     trace's is the design frame's: a rotated ring or a mirrored row reverses it)."""
 
+    # colourwork (empty without it)
+    free: list[int] = field(default_factory=list)
+    """Carriers no yarn holds, in the order they are taken (`_run`'s list)."""
+    course_yarn: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int8))
+    """Per course, the design's yarn that carries it (`StitchGraph.course_yarn`)."""
+    back_courses: dict[int, list[int]] = field(default_factory=dict)
+    """The design's yarn -> the courses of several yarns where it floats behind another
+    (fair isle), in order."""
+    back: dict[int, int] = field(default_factory=dict)
+    """The design's yarns in for fair isle courses, not held by a strand of the trace ->
+    their carrier."""
+    strand_yarn: dict[int, int] = field(default_factory=dict)
+    """A strand of the trace (a yarn in action) -> the design's yarn it is."""
+
     def __post_init__(self) -> None:
         self.knit_bed, self.knit_needle = sc.knit_positions(self.sched, self.g.n_stitches)
         # (bed, needle) of every stitch as Python values, made once: `pos` is asked about
@@ -197,6 +214,13 @@ class _Gen:
         self.forks = set(np.nonzero((g.wale_next >= 0).sum(axis=1) == 2)[0].tolist())
         self.carrying = np.zeros(g.n_courses, bool)
         self.carrying[g.course[np.isin(g.instr, CARRIED)]] = True
+        if g.colourwork:
+            assert g.yarn is not None
+            self.course_yarn = g.course_yarn()  # (stripes too: a new strand's yarn)
+            other = g.yarn != np.repeat(self.course_yarn, g.course_len)
+            for c in np.unique(g.course[other]).tolist():
+                for y in sorted(set(g.yarn[g.course_ids(c)].tolist()) - {int(self.course_yarn[c])}):
+                    self.back_courses.setdefault(y, []).append(c)
 
     def pos(self, s: int) -> Pos:
         return self.positions[s]
@@ -275,7 +299,7 @@ def _run(gen: _Gen) -> None:
     the shaping pass puts the loops where its layout wants them; a course's cast-on comes
     with its first part and its cast-off after its last."""
     g, t = gen.g, gen.t
-    free = list(gen.carriers) + [c for c in range(1, 11) if c not in gen.carriers]
+    free = gen.free = list(gen.carriers) + [c for c in range(1, 11) if c not in gen.carriers]
     course_of_visit = g.course[t.stitch]
     course_cuts = np.nonzero(np.diff(course_of_visit) != 0)[0] + 1
     slices = gen.sched.slices
@@ -309,8 +333,13 @@ def _run(gen: _Gen) -> None:
             yarn = int(t.yarn[v0])
             new = yarn not in gen.carrier_of
             if new:
-                design = 0 if g.yarn is None else int(g.yarn[ids[0]])
-                gen.carrier_of[yarn] = _take_carrier(gen, free, design)
+                design = int(gen.course_yarn[g.course[ids[0]]]) if gen.course_yarn.size else 0
+                if design in gen.back:  # in already, for fair isle: the strand takes it
+                    gen.carrier_of[yarn] = gen.back.pop(design)
+                    new = False
+                else:
+                    gen.carrier_of[yarn] = _take_carrier(gen, free, design)
+                gen.strand_yarn[yarn] = design
             carrier = gen.carrier_of[yarn]
             ctx = gen.ctx(carrier, int(ids[0]))
             catch = []
@@ -417,6 +446,8 @@ def _finish_course(
     prog = gen.bed.prog
     with prog.code_pass("cast_off"):
         left, last_dir = _cast_off(gen, ctx, chunk, ends) if ends else (-1, 0)
+    if gen.back:
+        _end_back_yarns(gen, int(g.course[ids[-1]]), int(ids[-1]))
     with prog.code_pass("yarn_end"):
         if t.flags[chunk[-1]] & tr.END:
             tail_pos = cast.tail(ctx, left, last_dir) if left >= 0 else None
@@ -661,7 +692,7 @@ def _park(gen: _Gen, moves: list, toward: int) -> None:
     idx = [m[1][1] for m in moves] + [m[2][1] for m in moves]
     lo, hi = min(idx), max(idx)
     needles = gen.bed.prog.machine.needles
-    for carrier in sorted(gen.carrier_of.values()):
+    for carrier in sorted({*gen.carrier_of.values(), *gen.back.values()}):
         at = gen.bed.carrier_at.get(carrier)
         if at is None or not lo < at < hi:
             continue
@@ -768,9 +799,12 @@ tests/test_fast_routes.py holds the short cuts to (the same ops, op for op)."""
 
 
 def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int, int]) -> None:
-    incs = _increases(gen, chunk, primary)
     g = gen.g
     stitches = gen.t.stitch[chunk]
+    if gen.back_courses and g.yarn is not None and len(set(g.yarn[stitches].tolist())) > 1:
+        _fair_isle_pass(gen, ctx, chunk)
+        return
+    incs = _increases(gen, chunk, primary)
     ids = stitches.tolist()
     for s in ids:
         if s in gen.fetch:
@@ -845,6 +879,88 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
         run_actions(part)
     if gen.bed.rack:  # a user action's transfers may leave the machine racked
         gen.bed.set_rack(0)
+
+
+def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
+    """A part of a course of several yarns (fair isle; plain knits only, E711): each yarn
+    in turn, the course's own first, knits its stitches in the course's direction and
+    floats behind the others (thesis ch. 6.9.5: one main step per yarn)."""
+    g = gen.g
+    assert g.yarn is not None
+    stitches = gen.t.stitch[chunk]
+    ys = g.yarn[stitches]
+    numbers = gen.opts.numbers
+    halves = g.course_gauge[g.course[stitches]] == 2
+    plain = np.where(halves, numbers.knit_half_gauge, numbers.knit)
+    empty = np.where(g.wale_prev[stitches, 0] < 0, numbers.cast_on, plain)
+    dirs = gen.dirs[chunk]
+    dirs = np.where(dirs == 0, 1, dirs)
+    base = int(gen.course_yarn[g.course[stitches[0]]])
+    for y in [base] + sorted(set(ys.tolist()) - {base}):
+        sel = ys == y
+        if not sel.any():
+            continue
+        ids = stitches[sel].tolist()
+        carrier = ctx.carrier if y == base else _back_carrier(gen, y, ids[0])
+        gen.bed.knit_run(
+            ids,
+            dirs[sel].tolist(),
+            list(map(gen.positions.__getitem__, ids)),
+            plain[sel].tolist(),
+            empty[sel].tolist(),
+            carrier,
+            None if y == base else _yarn_spans(gen, ids),
+        )
+    _lead_out(gen, ctx, chunk)
+    if gen.bed.rack:
+        gen.bed.set_rack(0)
+
+
+def _yarn_spans(gen: _Gen, ids: list[int]) -> dict[int, Span | None]:
+    """Each stitch's `knit YARN` statement (else its own span): where a hazard of a fair
+    isle yarn's pass, such as a long float, is reported."""
+    g = gen.g
+    origin = g.yarn_origin
+    out: dict[int, Span | None] = {}
+    for s in ids:
+        k = -1 if origin is None else int(origin[s])
+        out[s] = g.spans[k] if k >= 0 else gen.bed.span(s)
+    return out
+
+
+def _back_carrier(gen: _Gen, yarn: int, stitch: int) -> int:
+    """The carrier of the design's `yarn` for its stitches of a fair isle course: a strand
+    of it that is in (a stripe of it resting at the side), or its own, brought in now."""
+    for strand, design in gen.strand_yarn.items():
+        if design == yarn and strand in gen.carrier_of:
+            return gen.carrier_of[strand]
+    carrier = gen.back.get(yarn)
+    if carrier is None:
+        carrier = gen.back[yarn] = _take_carrier(gen, gen.free, yarn)
+        prog = gen.bed.prog
+        with prog.code_pass("yarn_start"):
+            prog.in_((carrier,), stitch=stitch, span=gen.bed.span(stitch))
+    return carrier
+
+
+def _end_back_yarns(gen: _Gen, course: int, stitch: int) -> None:
+    """After a course: take out each fair isle yarn that does not float in a course of the
+    same node within its `carry_up` courses (it would rest too long, or elsewhere)."""
+    g, opts = gen.g, gen.opts
+    for yarn, carrier in list(gen.back.items()):
+        later = [c for c in gen.back_courses.get(yarn, ()) if c > course]
+        nxt = later[0] if later else None
+        carry = opts.yarn_carry_up[yarn] if yarn < len(opts.yarn_carry_up) else 8
+        if (
+            nxt is not None
+            and g.course_node[nxt] == g.course_node[course]
+            and nxt - course - 1 <= carry
+        ):
+            continue
+        with gen.bed.prog.code_pass("yarn_end"):
+            cast.yarn_end(gen.ctx(carrier, stitch), None, stitch)
+        del gen.back[yarn]
+        gen.free.append(carrier)
 
 
 _Plain = tuple[int, int, Pos, int, int]

@@ -40,7 +40,7 @@ from knitc.patterning.query import (
     evaluate_query,
     relative,
 )
-from knitc.shaping.stitch_graph import INSTRUCTIONS, StitchGraph
+from knitc.shaping.stitch_graph import COURSE_KINDS, INSTRUCTIONS, StitchGraph
 from knitc.source import Span
 
 MAX_DEPTH = 32
@@ -74,7 +74,7 @@ def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> Sti
         return dataclasses.replace(
             g, instr=run.instr, action=run.action, origin=run.origin, spans=run.spans
         )
-    _one_yarn_per_course(run)
+    _check_fair_isle(run)
     return dataclasses.replace(
         g,
         instr=run.instr,
@@ -83,39 +83,60 @@ def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> Sti
         spans=run.spans,
         yarn=run.yarn,
         yarn_names=names,
+        yarn_origin=run.yarn_origin,
     )
 
 
-def _one_yarn_per_course(run: _Run) -> None:
-    """Stripes: every course is knitted by one yarn. Several yarns in a course (fair isle,
-    intarsia) are not lowered yet: E711 at the statement that last changed a yarn in it."""
+def _check_fair_isle(run: _Run) -> None:
+    """A course of several yarns (fair isle) is knitted yarn by yarn, each yarn knitting
+    its own stitches and floating behind the others: that is lowered for plain knit
+    stitches of regular courses only. A mixed course with purls, tucks, moves, actions,
+    increases or short rows is E711, at the `knit` statement that last changed a yarn in
+    it (jacquard and intarsia, which would knit those, are not lowered yet)."""
     g, yarn, where = run.g, run.yarn, run.yarn_origin
     assert yarn is not None and where is not None
     if g.n_stitches == 0:
         return
-    start = g.course_start
-    first = np.repeat(yarn[start], g.course_len)
+    first = np.repeat(yarn[g.course_start], g.course_len)
     mixed = np.unique(g.course[yarn != first])
-    by_stmt: dict[int, list[int]] = {}  # statement -> the mixed courses it last changed
+    if mixed.size == 0:
+        return
+    increase = np.zeros(g.n_stitches, bool)
+    forks = np.nonzero((g.wale_next >= 0).sum(axis=1) == 2)[0]
+    kids = g.wale_next[forks].ravel()
+    increase[kids[kids >= 0]] = True
+    by_stmt: dict[int, list[tuple[int, str]]] = {}  # statement -> (course, why), in order
     for c in mixed.tolist():
         ids = g.course_ids(c)
-        k = where[ids]
-        by_stmt.setdefault(int(k[k >= 0][-1]), []).append(c)
-    for k, courses in by_stmt.items():
-        c = courses[0]
+        why = ""
+        if COURSE_KINDS[int(g.course_kind[c])] in ("short_row", "continuity"):
+            why = "short rows"
+        elif np.any(run.instr[ids] != 0):
+            names = sorted({INSTRUCTIONS[int(i)] for i in run.instr[ids] if i != 0})
+            why = "/".join(names) + " stitches"
+        elif np.any(run.action[ids] >= 0):
+            why = "stitch actions"
+        elif np.any(increase[ids]):
+            why = "increases"
+        if why:
+            k = where[ids]
+            by_stmt.setdefault(int(k[k >= 0][-1]), []).append((c, why))
+    for k, bad in by_stmt.items():
+        c, why = bad[0]
         ids = g.course_ids(c)
         used = [run.g_names[int(y)] for y in np.unique(yarn[ids]).tolist()]
         node = g.node_names[int(g.course_node[c])]
-        more = f" (and {len(courses) - 1} more course{'s' * (len(courses) > 2)})"
+        more = f" (and {len(bad) - 1} more course{'s' * (len(bad) > 2)})"
         run.diags.error(
             "E711",
-            f"course {c - _node_first_course(g, c)} of `{node}` would be knitted with "
+            f"course {c - _node_first_course(g, c)} of `{node}` is knitted with "
             + " and ".join(f"`{u}`" for u in used)
-            + (more if len(courses) > 1 else ""),
+            + f" and has {why}"
+            + (more if len(bad) > 1 else ""),
             run.spans[k],
-            hint="a course is knitted with one yarn (stripes): select whole courses, e.g. "
-            "`where courses(0:4)`; several yarns in one course (fair isle, intarsia) are "
-            "not supported yet",
+            hint="a course of several yarns (fair isle) knits plain stitches only, each "
+            "yarn floating behind the others' stitches; keep its purls, moves, actions and "
+            "shaping in courses of one yarn",
         )
 
 

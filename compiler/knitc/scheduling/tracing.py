@@ -81,7 +81,7 @@ def _trace_stripes(g: StitchGraph, carry_up: Sequence[int]) -> tr.Trace:
     courses (`trace.carried`). Otherwise a new strand of that yarn starts."""
     n = g.n_stitches
     assert g.yarn is not None
-    design = g.yarn
+    design = g.course_yarn()
     yarn = np.zeros(n, np.int16)
     flags = np.zeros(n, np.uint8)
     last_of: list[int] = []  # strand -> its last stitch
@@ -92,7 +92,7 @@ def _trace_stripes(g: StitchGraph, carry_up: Sequence[int]) -> tr.Trace:
         if ids.size == 0:
             continue
         first = int(ids[0])
-        want = int(design[first])
+        want = int(design[c])
         below = int(g.course[g.wale_prev[first, 0]]) if g.wale_prev[first, 0] >= 0 else -1
         chosen, flag = -1, 0
         for y in range(len(last_of) - 1, -1, -1):  # most recent strand first

@@ -89,6 +89,9 @@ class StitchGraph:
     """int8 per stitch: the yarn that knits it, an index into `yarn_names` (0: the design's
     own yarn, `main`); set by `knit YARN where ...` pattern statements."""
     yarn_names: tuple[str, ...] = ("main",)
+    yarn_origin: np.ndarray | None = None
+    """int32 per stitch: index into `spans` of the `knit YARN` statement that gave the
+    stitch its yarn (-1: none); a fair isle yarn's knits point at it."""
 
     def __post_init__(self) -> None:
         if self.origin is None:
@@ -101,6 +104,18 @@ class StitchGraph:
         """Whether any stitch is knitted with another yarn than `main`."""
         assert self.yarn is not None
         return bool(self.yarn.any())
+
+    def course_yarn(self) -> np.ndarray:
+        """int8 per course: the yarn that carries it (its stitches' yarn; in a course of
+        several yarns, fair isle, the one knitting most of it, the lowest on a tie). The
+        others float behind and knit their own stitches in passes of their own."""
+        assert self.yarn is not None
+        out = self.yarn[self.course_start].copy() if self.n_stitches else self.yarn[:0]
+        first = np.repeat(out, self.course_len)
+        for c in np.unique(self.course[self.yarn != first]).tolist():
+            counts = np.bincount(self.yarn[self.course_ids(c)])
+            out[c] = int(np.argmax(counts))
+        return out
 
     @property
     def n_stitches(self) -> int:

@@ -36,11 +36,12 @@ def orient_stripes(g: StitchGraph) -> StitchGraph:
     order = np.arange(g.n_stitches, dtype=np.int64)  # new id -> old id
     flipped = np.zeros(g.n_courses, bool)
     rest: dict[int, tuple[int, int, int]] = {}  # yarn -> (node, side, needle) of its carrier
+    carrying = g.course_yarn()
     for c in range(g.n_courses):
         s, n = int(g.course_start[c]), int(g.course_len[c])
         if n == 0:
             continue
-        y, node = int(g.yarn[s]), int(g.course_node[c])
+        y, node = int(carrying[c]), int(g.course_node[c])
         at = rest.get(y)
         if (
             at is not None
@@ -53,7 +54,8 @@ def orient_stripes(g: StitchGraph) -> StitchGraph:
             order[s : s + n] = order[s : s + n][::-1].copy()
             flipped[c] = True
         last = int(order[s + n - 1])
-        rest[y] = (node, int(g.side[last]), int(g.needle[last]))
+        for k in set(g.yarn[s : s + n].tolist()):  # (fair isle: every yarn of the course
+            rest[k] = (node, int(g.side[last]), int(g.needle[last]))  # ends where it ends)
     if not flipped.any():
         return g
     return _renumber(g, order, flipped)
@@ -93,4 +95,5 @@ def _renumber(g: StitchGraph, order: np.ndarray, flipped: np.ndarray) -> StitchG
         span=g.span[order],
         origin=g.origin[order],
         yarn=g.yarn[order],
+        yarn_origin=None if g.yarn_origin is None else g.yarn_origin[order],
     )
