@@ -2,6 +2,8 @@
 
 - The TextMate grammar passes the vscode-tmgrammar-test assertion files in
   editors/vscode/tests/ (`//  ^^^ scope` lines under each source line).
+- Every keyword of the language (grammars/knit.lark's keyword terminals) is an alternative
+  of a rule that gives it a keyword scope (read from the grammar's JSON, without node).
 - Every example, stdlib module and documented ```knit block (all of them compile) tokenises
   without an `invalid` scope and ends outside any string, grid, comment or bracket
   (editors/vscode/tests/no-invalid.js, vscode-textmate as VS Code runs it).
@@ -77,6 +79,42 @@ def test_assertion_files_carry_assertions() -> None:
             assert re.fullmatch(
                 r"//\s*(\^+|<~*-+) [\w.-]+( [\w.-]+)*( - [\w.-]+( [\w.-]+)*)?", ln
             ), (path, ln)
+
+
+def _rules(node: object) -> list[dict]:
+    """Every rule of a TextMate grammar with a `match`, wherever it is nested."""
+    if isinstance(node, list):
+        return [r for item in node for r in _rules(item)]
+    if not isinstance(node, dict):
+        return []
+    own = [node] if isinstance(node.get("match"), str) else []
+    return own + [r for value in node.values() for r in _rules(value)]
+
+
+def _scopes(rule: dict) -> list[str]:
+    """The scope names a rule gives: its own and its captures'."""
+    return [rule.get("name", ""), *(c.get("name", "") for c in rule.get("captures", {}).values())]
+
+
+def test_grammar_highlights_every_keyword_of_the_language() -> None:
+    # A keyword grammars/knit.lark gains needs a rule here too (`yarn` and `knit` came
+    # without one): each keyword terminal's words are an alternative of some rule's match,
+    # in a rule that gives a keyword (or node-kind) scope. No node needed.
+    lark = (REPO / "grammars" / "knit.lark").read_text()
+    words = set(re.findall(r"^KW_\w+\.\d+: /(\w+)\(", lark, re.M))
+    for group in re.findall(r"^(?:NODE_KIND|GRID_MODE|STEP)\.\d+: /\(([\w|]+)\)", lark, re.M):
+        words |= set(group.split("|"))
+    assert {"yarn", "knit", "machine", "where", "sheet", "draw", "main"} <= words, words
+    rules = _rules(json.loads((EXT / GRAMMAR).read_text()))
+    for word in sorted(words):
+        alternative = re.compile(rf"\((?:[\w|]*\|)?{word}(?:\|[\w|]*)?\)")
+        scoped = [
+            r
+            for r in rules
+            if alternative.search(r["match"])
+            and any(s.startswith(("keyword.", "storage.type.")) for s in _scopes(r))
+        ]
+        assert scoped, f"no keyword rule of {GRAMMAR} highlights `{word}`"
 
 
 def _docs_blocks(tmp_path: Path) -> list[Path]:

@@ -1,7 +1,8 @@
 """Completion while the designer types: keywords and snippets at the top level, properties
 in blocks, their values, parameters, instructions, queries, patterns (with the import a
-stdlib one needs), modules and their exports, interface paths; on incomplete text, next to
-non-ASCII characters, after a syntax error elsewhere and past the end of the file."""
+stdlib one needs), modules and their exports, interface paths, yarns after `knit`; on
+incomplete text, next to non-ASCII characters, after a syntax error elsewhere and past the
+end of the file."""
 
 from __future__ import annotations
 
@@ -203,6 +204,25 @@ async def test_interface_paths_and_node_names(session: Session):
     assert {"body", "fork"} <= set(labels(nodes))
 
 
+async def test_yarns_after_knit_and_their_properties(session: Session):
+    text = "yarn red { carrier: 5 }\ntube a { length: 4, width: 4 }\npattern a {\n  knit "
+    uri = session.open("stripes.knit", text)
+    yarns = await complete(session, uri, end_of(text), trigger=" ")
+    assert labels(yarns) == ["main", "red"]
+    assert by_label(yarns, "red").detail == "yarn, carrier 5"
+    assert by_label(yarns, "main").detail == "the design's own yarn"
+    assert edit_of(by_label(yarns, "red")).new_text == "red"
+    text2 = "yarn red {\n  carrier: 5\n  \n}\n"
+    session.replace_all(uri, text2)
+    props = await complete(session, uri, (2, 2))
+    assert labels(props) == ["carry_up"]  # `carrier` is set
+    carry = by_label(props, "carry_up")
+    assert (
+        carry.kind == types.CompletionItemKind.Property and edit_of(carry).new_text == "carry_up: "
+    )
+    assert carry.detail == "int 0..1000, default 8"
+
+
 async def test_ranges_are_utf16_after_non_ascii_text(session: Session):
     text = "tube a { /* é 🧶 */ len"
     uri = session.open("utf.knit", text)
@@ -261,6 +281,35 @@ def test_machine_interface_and_action_blocks():
     assert "cast_on: " not in inserts_at("shaper z(M, N) { if a.b { | } }")
     action = inserts_at("action x {\n  |")
     assert "split_by_side: " in action and any(t.startswith("pre {") for t in action)
+
+
+def test_yarn_declarations_and_knit_statements():
+    offered = inserts_at("|", snippets=False)
+    assert "yarn" in offered and "yarn name {\n  carrier: 5\n}" in offered
+    assert "yarn ${1:name} {\n  carrier: ${2:5}\n}" in inserts_at("|")
+    assert inserts_at("yarn red {\n  |\n}") == ["carrier: ", "carry_up: "]
+    assert inserts_at("yarn red { carrier: 5, c| }") == ["carry_up: "]
+    assert "#n" in inserts_at("param n = 4\nyarn red { carrier: | }")
+    layer = "tube a { length: 4, width: 4 }\npattern a {\n  |\n}"
+    assert {"set", "use", "knit", "apply"} <= set(inserts_at(layer))
+    # the yarns after `knit`, `main` first: with the resolved carriers when the text parses
+    design = "machine { carriers: [2] }\nyarn red { carrier: 5 }\n" + layer
+    text = design.replace("|", "knit re|")
+    ans = c.answer(analysis(text.replace("|", "")), text.index("|"))
+    assert [(i.label, i.detail) for i in ans.items] == [
+        ("main", "the design's own yarn, carrier 2"),
+        ("red", "yarn, carrier 5"),
+    ]
+    assert ans.start == text.index("re|")
+    # and from the word before when the statement does not parse up to the cursor
+    assert inserts_at(design.replace("|", "set K K\n  knit |")) == ["main", "red"]
+    a = analysis(design.replace("|", "knit "))
+    assert [i.insert for i in c.answer(a, a.text.index("knit ") + 5, trigger=" ").items] == [
+        "main",
+        "red",
+    ]
+    # `knit(` in an action step is an operation: no yarns there
+    assert "red" not in inserts_at("yarn red {}\naction x { main { knit(|) } }")
 
 
 def test_shaper_values_include_the_modules_shapers():

@@ -217,6 +217,53 @@ def test_keywords_used_as_names_follow_the_tree():
     assert got.count(("start", "class")) == 3 and got.count(("start", "keyword")) == 1
 
 
+STRIPES = (
+    "yarn red { carrier: 5 }\n"
+    "yarn main {\n"
+    "  carrier: 3\n"
+    "}\n"
+    "tube t { length: 4, width: 4 }\n"
+    "pattern t { knit red where courses(0:1) knit main }\n"
+    "action a { main { knit(dir) } }\n"
+)
+
+
+def _classes(text: str) -> list[tuple[str, str, set[str]]]:
+    """(text, type, modifiers) of each semantic token of `text`, in order."""
+    a = analyse("file:///t/y.knit", 1, "/t/y.knit", text, Settings())
+    return [
+        (
+            text[s.start : s.end],
+            editing.TOKEN_TYPES[s.type],
+            {m for b, m in enumerate(editing.TOKEN_MODIFIERS) if s.modifiers >> b & 1},
+        )
+        for s in editing.semantic_tokens(a, editing.lex(text))
+    ]
+
+
+def test_yarns_are_constants_and_knit_is_a_keyword_only_in_a_layer():
+    declared = ("variable", {"declaration", "readonly"})
+    used = ("variable", {"readonly"})
+    want = [
+        ("yarn", "keyword", set()),
+        ("red", *declared),
+        ("yarn", "keyword", set()),
+        ("main", *declared),  # a yarn, not the action step
+        ("knit", "keyword", set()),
+        ("red", *used),
+        ("knit", "keyword", set()),
+        ("main", *used),
+        ("main", "keyword", set()),  # the action step
+        ("knit", "function", {"defaultLibrary"}),
+    ]
+    words = {"yarn", "knit", "red", "main"}
+    got = [t for t in _classes(STRIPES) if t[0] in words]
+    assert got == want
+    # the same from the tokens alone, when the text does not parse
+    broken = [t for t in _classes(STRIPES + "tube x { ; }\n") if t[0] in words]
+    assert broken == want
+
+
 # ---- folding ranges ---------------------------------------------------------------------------
 
 
@@ -253,6 +300,11 @@ async def test_folding_of_a_broken_text_and_imports_by_brackets(session: Session
     assert (0, 1, types.FoldingRangeKind.Imports) in folds
     assert (2, 3, types.FoldingRangeKind.Comment) in folds
     assert (4, 6, None) in folds
+
+
+def test_a_yarn_block_folds():
+    a = analyse("file:///t/y.knit", 1, "/t/y.knit", STRIPES, Settings())
+    assert {(f.start_line, f.end_line) for f in editing.folding_ranges(a)} == {(1, 2)}
 
 
 def test_folding_from_the_tree_has_the_imports_and_shaper_blocks():

@@ -16,6 +16,21 @@ from knitc.shaping.stitch_graph import INSTRUCTIONS
 
 TUBE = "tube body {\n  length: 10\n  width: 8\n}\n"
 
+STRIPES = (
+    "yarn red {\n"
+    "  carrier: 5\n"
+    "  carry_up: 4\n"
+    "}\n"
+    "yarn blue {}\n"
+    "tube sleeve { length: 20, width: 8 }\n"
+    "pattern sleeve {\n"
+    "  knit red where courses(4:7) or courses(12:15)\n"
+    "  knit blue where courses(18:19)\n"
+    "  knit main where courses(0:1)\n"
+    "}\n"
+    "action twice { main { knit(dir) knit(dir) } }\n"
+)
+
 
 def at(text: str, needle: str, skip: int = 0) -> types.Position:
     """The UTF-16 position `skip` code points into the first `needle` of `text`."""
@@ -146,6 +161,15 @@ async def test_inlay_hints_give_each_node_its_stitch_graph_size(session: Session
     assert only_palm is not None and len(only_palm) == 1
 
 
+async def test_hover_on_a_yarn_where_it_is_knitted(session: Session):
+    uri = session.open("stripes.knit", STRIPES)
+    text = markdown(await hover(session, uri, at(STRIPES, "knit red", 6)))
+    assert text.startswith("```knit\nyarn red {\n  carrier: 5\n  carry_up: 4\n}\n```")
+    assert "**128 stitches, 8 courses** knitted with it" in text and "line 1" in text
+    text = markdown(await hover(session, uri, at(STRIPES, "knit red", 1)))
+    assert text.startswith("**`knit`** — keyword") and "`knit YARN where Q`" in text
+
+
 # ---- in process ----------------------------------------------------------------------------
 
 
@@ -252,3 +276,42 @@ def test_hover_never_raises_on_any_offset(glove_text: str):
             info = hv.hover_at(analysis, i)
             if info is not None:
                 assert info.start <= i <= info.end
+
+
+def test_hover_on_yarns_their_keywords_and_properties():
+    a = local(STRIPES)
+    assert a.graph is not None
+    red = hover_text(a, "yarn red", 6)
+    assert red is not None and red == hover_text(a, "knit red", 6)
+    assert hv.yarn_counts(a.graph, "red") == (128, 8)
+    assert hv.yarn_counts(a.graph, "main") == (320 - 128 - 32, 20 - 8 - 2)
+    # the design's own yarn, undeclared: on the machine's first carrier
+    main = hover_text(a, "knit main", 6)
+    assert main is not None and main.startswith("```knit\nyarn main {\n  carrier: 3\n")
+    assert "The design's own yarn" in main and "Declared" not in main
+    blue = hover_text(a, "knit blue", 6)
+    assert blue is not None and "Carrier: chosen by knitc" in blue and "16" not in blue
+    assert "**32 stitches, 2 courses**" in blue and "*Declared on line 5*" in blue
+    for needle, keyword in (("yarn red", "yarn"), ("yarn blue", "yarn"), ("knit main", "knit")):
+        got = hover_text(a, needle, 1)
+        assert got is not None and got.startswith(f"**`{keyword}`** — keyword"), needle
+    assert hover_text(a, "knit(dir)", 1) is None  # an action step's operation
+    carrier = hover_text(a, "carrier: 5", 2)
+    assert carrier is not None and "**carrier**: whole number — property of `yarn`" in carrier
+    assert "- default: chosen by knitc" in carrier and "- here: `5`" in carrier
+    carry = hover_text(a, "carry_up", 3)
+    assert carry is not None and "- default: `8`" in carry and "- here: `4`" in carry
+
+
+def test_hover_on_a_yarn_of_a_stale_module():
+    text = "yarn red { carrier: #n }\ntube t { length: 4, width: 4 }\n"
+    text += "pattern t { knit red knit main knit green }\n"
+    good = local(text + "param n = 5\n")
+    assert good.skeleton is not None
+    a = local(text + "param n = 5 +\n", previous=good)  # the same offsets, and no skeleton
+    assert a.stale and a.skeleton is None
+    red = hover_text(a, "knit red", 6)
+    assert red == "```knit\nyarn red {\n  carrier: #n\n}\n```\n\n*Declared on line 1*"
+    main = hover_text(a, "knit main", 6)
+    assert main is not None and main.startswith("**yarn** `main`")
+    assert hover_text(a, "knit green", 6) is None  # E228: no such yarn

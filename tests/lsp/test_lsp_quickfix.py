@@ -1,6 +1,6 @@
 """Quick fixes through the real server: the hint's suggestion for a misspelt name, the
-import of a standard-library definition, half gauge for reverse stitches on a tube; each
-fix applied gives a design without that mistake."""
+import of a standard-library definition, half gauge for reverse stitches on a tube, the
+declaration of an unknown yarn; each fix applied gives a design without that mistake."""
 
 from __future__ import annotations
 
@@ -98,6 +98,65 @@ async def test_an_unimported_stdlib_pattern_or_shaper_gets_its_import(session: S
     fixed = apply(listed, edits_of(fix, uri))
     assert fixed.startswith("import std.stitches (rib, seed)  // é 🧶\n")
     assert "E218" not in codes_of(fixed)
+
+
+STRIPES = (
+    "yarn red { carrier: 1 }  // é 🧶\n"
+    "tube body { length: 10, width: 8 }\n"
+    "pattern body {\n"
+    "  knit rde where courses(0:1)\n"
+    "  knit blue where courses(4:5)\n"
+    "}\n"
+)
+
+
+async def test_an_unknown_yarn_is_declared_or_corrected(session: Session):
+    uri = session.open("stripes.knit", STRIPES)
+    diags = await session.diagnostics(uri, lambda d: len(d) >= 2)
+    assert {d.code for d in diags} == {"E228"}
+    got = await actions(session, uri, diags)
+    by_title = {a.title: a for a in got}
+    assert set(by_title) == {"Change to `red`", "Declare yarn `rde`", "Declare yarn `blue`"}
+    assert by_title["Change to `red`"].is_preferred and by_title["Declare yarn `blue`"].is_preferred
+    assert not by_title["Declare yarn `rde`"].is_preferred  # a misspelling, more likely
+    (declare,) = edits_of(by_title["Declare yarn `blue`"], uri)
+    # after the last yarn, past its comment (23 + 8 code points, 🧶 two UTF-16 units);
+    # carrier 1 is red's and 3 main's: the lowest free one is 2
+    assert declare.range.start == types.Position(0, 32) and declare.range.end.character == 32
+    assert declare.new_text == "\nyarn blue { carrier: 2 }"
+    chosen = [by_title["Change to `red`"], by_title["Declare yarn `blue`"]]
+    fixed = apply(STRIPES, [e for a in chosen for e in edits_of(a, uri)])
+    assert fixed.startswith("yarn red { carrier: 1 }  // é 🧶\nyarn blue { carrier: 2 }\n")
+    assert "knit red where" in fixed
+    assert codes_of(fixed, "stitch-graph") == []
+
+
+@pytest.mark.parametrize(
+    ("head", "want"),
+    [
+        ("", "yarn blue { carrier: 1 }\n\ntube t"),
+        ("import std.stitches\nparam n = 2\n", "param n = 2\n\nyarn blue { carrier: 1 }\ntube t"),
+        (
+            "machine { carriers: [1] }\nparam n = 2\n",
+            "machine { carriers: [1] }\n\nyarn blue { carrier: 2 }\nparam n",
+        ),
+        (
+            "yarn main { carrier: 1 }\nyarn red {}\nyarn x { carrier: 2 }\n",
+            "yarn x { carrier: 2 }\nyarn blue { carrier: 3 }\ntube t",
+        ),
+    ],
+)
+def test_a_yarn_is_declared_beside_the_others_on_a_free_carrier(head: str, want: str):
+    text = head + "tube t { length: 4, width: 4 }\npattern t { knit blue }\n"
+    a = analyse("file:///t/y.knit", 1, "/t/y.knit", text, Settings())
+    start = text.index("blue")
+    fix = qf.yarn_fix(a, start, start + 4, preferred=True)
+    assert fix is not None and fix.title == "Declare yarn `blue`"
+    ((at, end, new),) = fix.edits
+    fixed = text[:at] + new + text[end:]
+    assert want in fixed
+    assert codes_of(fixed) == []
+    assert qf.yarn_fix(a, text.index("knit"), start + 4, preferred=True) is None  # not a name
 
 
 GAUGE = (

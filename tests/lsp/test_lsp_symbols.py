@@ -31,6 +31,22 @@ pattern cuff { apply rib(1, 1) where shape("cuff") }
 """
 
 
+STRIPES = (
+    "yarn red {\n"
+    "  carrier: 5  // é 🧶\n"
+    "  carry_up: 4\n"
+    "}\n"
+    "tube sleeve { length: 20, width: 8 }\n"
+    "pattern sleeve {\n"
+    "  knit red where courses(4:7)\n"
+    "  /* 🧶 */ knit red where courses(12:15)\n"
+    "  knit main where courses(0:1)\n"
+    "}\n"
+)
+"""Stripes: a declared yarn used twice (once after a character of two UTF-16 units), and
+`main`, the design's own yarn, used undeclared."""
+
+
 def utf16(text: str) -> int:
     return len(text.encode("utf-16-le")) // 2
 
@@ -301,6 +317,48 @@ async def test_workspace_symbols_find_unopened_files(session: Session):
     assert got[0].kind == types.SymbolKind.Class
 
 
+async def test_yarns_navigate_like_nodes(session: Session):
+    uri = session.open("stripes.knit", STRIPES)
+    red = rng(STRIPES, "red {", length=3)
+    # from each use (UTF-16 columns after 🧶) and from the declaration itself
+    for at in (pos(STRIPES, "red where"), pos(STRIPES, "red where", 1, 2), pos(STRIPES, "red {")):
+        (loc,) = await definition(session, uri, at)
+        assert loc.uri == uri and loc.range == red
+    assert not await definition(session, uri, pos(STRIPES, "main where"))  # undeclared
+    got = await references(session, uri, pos(STRIPES, "red where", 1), True)
+    assert got is not None and [r.range for r in got] == [
+        red,
+        rng(STRIPES, "red where", 0, length=3),
+        rng(STRIPES, "red where", 1, length=3),
+    ]
+    got = await references(session, uri, pos(STRIPES, "main where"), False)
+    assert got is not None and [r.range for r in got] == [rng(STRIPES, "main", length=4)]
+
+    edit = await rename(session, uri, pos(STRIPES, "red where", 1, 2), "blue")
+    after = apply(STRIPES, edits_of(edit, uri))
+    assert after == STRIPES.replace("red", "blue")
+    assert await prepare(session, uri, pos(STRIPES, "red {")) == red
+    for at, new, why in [
+        (pos(STRIPES, "main where"), "base", "the design's own yarn"),
+        (pos(STRIPES, "red {"), "main", "already a yarn named `main`"),
+    ]:
+        with pytest.raises(JsonRpcException, match=why):
+            await rename(session, uri, at, new)
+
+    symbols = await session.client.text_document_document_symbol_async(
+        types.DocumentSymbolParams(doc(uri))
+    )
+    assert symbols is not None and isinstance(symbols[0], types.DocumentSymbol)
+    assert [s.name for s in symbols] == ["red", "sleeve", "pattern sleeve"]
+    yarn = symbols[0]
+    assert yarn.kind == types.SymbolKind.Object and yarn.detail == "yarn"
+    assert yarn.selection_range == red and yarn.range.end == types.Position(3, 1)
+    assert [(c.name, c.detail) for c in yarn.children or ()] == [
+        ("carrier", "5"),
+        ("carry_up", "4"),
+    ]
+
+
 # ---- in process ------------------------------------------------------------------------------
 
 
@@ -342,3 +400,28 @@ def test_an_unparsed_document_answers_nothing(tmp_path: Path):
     assert sy.references(a, 5, True) == []
     assert sy.document_symbols(a) == []
     assert sy.prepare_rename(a, 5) is None
+
+
+def test_a_declared_main_is_a_yarn_to_go_to_but_never_renamed(tmp_path: Path):
+    text = "yarn main { carrier: 4 }\n" + STRIPES
+    a = analysis(tmp_path, text)
+    (loc,) = sy.definition(a, text.index("main where") + 1)
+    assert (loc.range.start.line, loc.range.start.character) == (0, 5)
+    for offset in (text.index("main {") + 1, text.index("main where") + 1):
+        with pytest.raises(sy.RenameRefused, match="`main` is the design's own yarn"):
+            sy.prepare_rename(a, offset)
+    # a node may share a yarn's name: the namespaces are apart
+    edit = sy.rename(a, text.index("red {"), "sleeve")
+    assert edit is not None and edit.changes is not None
+    (edits,) = edit.changes.values()
+    assert [(e.range.start.line, e.new_text) for e in edits] == [
+        (1, "sleeve"),
+        (7, "sleeve"),
+        (8, "sleeve"),
+    ]
+
+
+def test_workspace_symbols_list_yarns(tmp_path: Path):
+    a = analysis(tmp_path, STRIPES)
+    got = sy.workspace_symbols("RE", sy.open_files([a]))
+    assert [(s.name, s.kind) for s in got] == [("red", types.SymbolKind.Object)]

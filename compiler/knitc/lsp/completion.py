@@ -5,8 +5,8 @@ up to the word being typed is fed to Lark's interactive LALR parser, whose state
 terminals it could shift next (`NAME`, `INSTR`, `NODE_KIND`, `RBRACE`, …) and whose value
 stack holds the tokens just before the cursor (`set`, `apply`, `body .`). The design
 decides *which* words: the property tables of `knitc.frontend.skeleton` for the enclosing
-node, machine or interface block, the module's parameters, nodes, patterns, actions and
-shapers, and the standard library's modules and exports.
+node, machine, yarn or interface block, the module's parameters, nodes, yarns, patterns,
+actions and shapers, and the standard library's modules and exports.
 
 Only the current statement is parsed (`parser._chunks`), so an error in another one does
 not matter and a glove-sized file costs well under a millisecond of parsing. When the
@@ -194,6 +194,7 @@ def context_at(text: str, offset: int) -> Context | None:
 _HEADERS: tuple[tuple[str, re.Pattern[str]], ...] = (
     ("node", re.compile(r"\b(sheet|tube|joint|split)\s+([A-Za-z_]\w*)\s*\Z")),
     ("machine", re.compile(r"\bmachine\s*\Z")),
+    ("yarn", re.compile(r"\byarn\s+[A-Za-z_]\w*\s*\Z")),
     ("action", re.compile(r"\baction\s+[A-Za-z_]\w*\s*\Z")),
     ("layer", re.compile(r"\bpattern\s+[A-Za-z_]\w*\s*(\([^{}]*\)\s*)?\Z")),
     (
@@ -208,9 +209,9 @@ _HEADERS: tuple[tuple[str, re.Pattern[str]], ...] = (
 
 @dataclass(frozen=True)
 class Block:
-    """The innermost `{ … }` the cursor is in: its kind (node, machine, action, layer, itf,
-    code or top), the node kind for a node block, where it opens, and whether the cursor is
-    also inside parentheses or brackets in it."""
+    """The innermost `{ … }` the cursor is in: its kind (node, machine, yarn, action, layer,
+    itf, code or top), the node kind for a node block, where it opens, and whether the
+    cursor is also inside parentheses or brackets in it."""
 
     kind: str
     brace: int = -1
@@ -286,6 +287,8 @@ class Names:
     """Parameter name → its value (as text, '' when unknown)."""
     nodes: dict[str, tuple[str, list[str]]] = field(default_factory=dict)
     """Node name → (kind, interface paths)."""
+    yarns: dict[str, str] = field(default_factory=dict)
+    """Yarn name → what to show beside it (its carrier); `main` first, declared or not."""
     defs: dict[str, list[tuple[str, str, str]]] = field(default_factory=dict)
     """'pattern' / 'action' / 'shaper' → [(name, signature, where from)]."""
     imported: dict[str, str] = field(default_factory=dict)
@@ -294,6 +297,7 @@ class Names:
 
 def names_of(a: Analysis) -> Names:
     names = Names(defs={"pattern": [], "action": [], "shaper": []})
+    names.yarns[sk.MAIN_YARN] = _yarn_detail(a, sk.MAIN_YARN, ())
     skel = a.skeleton
     own: set[str] = set()
     for sym in a.index.symbols:
@@ -301,6 +305,8 @@ def names_of(a: Analysis) -> Names:
             names.params[sym.name] = _param_value(a, sym.name, sym.decl)
         elif sym.kind == "node" and isinstance(sym.decl, ast.NodeDecl):
             names.nodes[sym.name] = (sym.decl.kind, _paths(a, sym.decl))
+        elif sym.kind == "yarn" and isinstance(sym.decl, ast.YarnDecl):
+            names.yarns[sym.name] = _yarn_detail(a, sym.name, sym.decl.props)
         elif sym.kind in names.defs:
             names.defs[sym.kind].append((sym.name, signature(sym.decl), "this file"))
             own.add(sym.name)
@@ -328,9 +334,11 @@ _DECLS = re.compile(
     r"|(sheet|tube|joint|split)\s+([A-Za-z_]\w*)\s*\{([^{}]*)"
     r"|(pattern|shaper)\s+([A-Za-z_]\w*)\s*\(([^)]*)\)"
     r"|(action)\s+([A-Za-z_]\w*)\s*\{"
-    r"|import\s+std\s*\.\s*([A-Za-z_]\w*)\s*(\([^)]*\))?)"
+    r"|import\s+std\s*\.\s*([A-Za-z_]\w*)\s*(\([^)]*\))?"
+    r"|yarn\s+([A-Za-z_]\w*)\s*\{([^{}]*))"
 )
 _DEGREE = re.compile(r"\bdegree\s*:\s*(\d+)")
+_CARRIER = re.compile(r"\bcarrier\s*:\s*(\d+)")
 
 
 def _scan(text: str, names: Names, own: set[str]) -> None:
@@ -351,6 +359,10 @@ def _scan(text: str, names: Names, own: set[str]) -> None:
             own.add(name)
         elif m.group(12) and m.group(12) not in names.imported:
             _add_import(names, own, m.group(12), None if m.group(13) is None else m.group(13))
+        elif m.group(14) and names.yarns.get(m.group(14)) in (None, _MAIN_DETAIL):
+            carrier = _CARRIER.search(m.group(15))
+            head = _MAIN_DETAIL if m.group(14) == sk.MAIN_YARN else "yarn"
+            names.yarns[m.group(14)] = f"{head}, carrier {carrier.group(1)}" if carrier else head
 
 
 _ENDS = ["bottom", "top"]
@@ -364,6 +376,21 @@ def _add_import(names: Names, own: set[str], module: str, listed: str | None) ->
         if (wanted is None or e.name in wanted) and e.name not in own:
             names.defs[e.kind].append((e.name, e.signature, f"std.{e.module}"))
             own.add(e.name)
+
+
+_MAIN_DETAIL = "the design's own yarn"
+
+
+def _yarn_detail(a: Analysis, name: str, props: tuple[ast.Prop, ...]) -> str:
+    """`yarn, carrier 5`: the carrier as resolved, else as written, else none."""
+    skel = a.skeleton
+    yarn = skel.yarns.get(name) if skel is not None else None
+    carrier = str(yarn.carrier) if yarn is not None and yarn.carrier is not None else None
+    if carrier is None:
+        written = next((p.value for p in props if p.name.name == "carrier"), None)
+        carrier = fmt.format_expr(written) if written is not None else None
+    head = _MAIN_DETAIL if name == sk.MAIN_YARN else "yarn"
+    return head if carrier is None else f"{head}, carrier {carrier}"
 
 
 def _param_value(a: Analysis, name: str, decl: ast.Node) -> str:
@@ -405,7 +432,17 @@ _ITF_DOT = re.compile(r"(?<![\w#@.])([A-Za-z_]\w*)\s*\.\s*\Z")
 _PREV_WORD = re.compile(r"(\w+|->)\s*\Z")
 
 SPECIFIC_AFTER_SPACE = frozenset(
-    {"KW_SET", "KW_USE", "KW_APPLY", "KW_WHERE", "KW_IMPORT", "KW_START", "__ANON_0", "COLON"}
+    {
+        "KW_SET",
+        "KW_USE",
+        "KW_KNIT",
+        "KW_APPLY",
+        "KW_WHERE",
+        "KW_IMPORT",
+        "KW_START",
+        "__ANON_0",
+        "COLON",
+    }
 )
 """Tokens after which a typed space asks for completion (elsewhere a space just types)."""
 
@@ -447,7 +484,8 @@ def _specific(ctx: Context) -> bool:
         return True
     if ctx.last is None and ctx.accepts is None:
         m = _PREV_WORD.search(ctx.before)
-        return m is not None and m.group(1) in ("set", "use", "apply", "where", "start", "->")
+        words = ("set", "use", "knit", "apply", "where", "start", "->")
+        return m is not None and m.group(1) in words
     return bool(_CLOSING.search(ctx.before))
 
 
@@ -477,6 +515,8 @@ def _dispatch(ctx: Context, block: Block, names: Names, snippets: bool) -> Itera
         yield from _instructions()
     elif last == "KW_USE":
         yield from _importable(ctx, names, "action")
+    elif last == "KW_KNIT":
+        yield from _yarns(names)
     elif last == "KW_APPLY":
         yield from _importable(ctx, names, "pattern")
     elif last in ("KW_START", "__ANON_0"):
@@ -499,7 +539,7 @@ def _dispatch(ctx: Context, block: Block, names: Names, snippets: bool) -> Itera
 
 def _in_block(ctx: Context, block: Block, names: Names, snippets: bool) -> Iterator[Item]:
     acc = ctx.accepts or frozenset()
-    if block.kind in ("node", "machine", "itf", "action") and not block.nested:
+    if block.kind in _PROP_BLOCKS and not block.nested:
         if "RBRACE" in acc and "NAME" in acc:
             yield from _props(_table(block), _set_props(ctx, block))
             if "STEP" in acc:
@@ -542,6 +582,8 @@ def _fallback(ctx: Context, block: Block, names: Names, snippets: bool) -> Itera
         yield from _instructions()
     elif prev == "use":
         yield from _importable(ctx, names, "action")
+    elif prev == "knit" and block.kind == "layer":
+        yield from _yarns(names)
     elif prev == "apply":
         yield from _importable(ctx, names, "pattern")
     elif prev == "where" and block.kind == "layer":
@@ -551,7 +593,7 @@ def _fallback(ctx: Context, block: Block, names: Names, snippets: bool) -> Itera
     elif block.kind == "top" and not block.nested:
         if _line_start(ctx):
             yield from _top_level(snippets)
-    elif block.kind in ("node", "machine", "itf", "action") and not block.nested:
+    elif block.kind in _PROP_BLOCKS and not block.nested:
         v = _VALUE_OF.search(ctx.before)
         if v is not None:
             yield from _values(_table(block).get(v.group(1)), names)
@@ -559,6 +601,10 @@ def _fallback(ctx: Context, block: Block, names: Names, snippets: bool) -> Itera
             yield from _props(_table(block), _set_props(ctx, block))
     elif block.kind == "layer" and _line_start(ctx):
         yield from _layer_keywords()
+
+
+_PROP_BLOCKS = ("node", "machine", "yarn", "itf", "action")
+"""Blocks of properties (`name: value`), whose table `_table` gives."""
 
 
 def _line_start(ctx: Context) -> bool:
@@ -572,6 +618,7 @@ _TOP_WORDS = {
     "import": "import a standard-library module or a file",
     "param": "a design parameter (`param n = 10`, used as `#n`)",
     "machine": "machine settings",
+    "yarn": "a yarn for stripes (`knit NAME where Q` in a pattern)",
     "sheet": "a flat or cylindrical sheet",
     "tube": "a tube (knitted in the round)",
     "joint": "a joint of short rows",
@@ -588,6 +635,7 @@ _SNIPPETS: tuple[tuple[str, str, str], ...] = (
     ("joint", "joint ${1:name} {\n  rows: ${2:10}\n  width: ${3:5}\n}", "a joint node"),
     ("split", "split ${1:name} {\n  degree: ${2:2}\n}", "a split node"),
     ("machine", "machine {\n  gauge: ${1|full,half|}\n}", "machine settings"),
+    ("yarn", "yarn ${1:name} {\n  carrier: ${2:5}\n}", "a yarn on its own carrier"),
     ("param", "param ${1:name} = ${2:10}", "a design parameter"),
     ("pattern", "pattern ${1:node} {\n  ${0:set K where all()}\n}", "pattern layers of a node"),
     (
@@ -641,6 +689,7 @@ def _layer_keywords() -> Iterator[Item]:
     for word, doc in (
         ("set", "write an instruction: `set P where Q`"),
         ("use", "use a stitch action: `use A where Q`"),
+        ("knit", "knit with a yarn: `knit red where courses(0:4)`"),
         ("apply", "apply a pattern definition: `apply rib(2, 2) where Q`"),
         ("draw", 'draw a grid: `draw """…""" where Q`'),
         ("stretch", "a grid scaled onto the selection"),
@@ -658,9 +707,13 @@ def _words(words: Iterable[str], kind: types.CompletionItemKind, detail: str) ->
 def _table(block: Block) -> dict[str, sk.PropSpec]:
     if block.kind == "node":
         return sk.NODE_PROPS.get(block.node_kind or "", {})
-    return {"machine": sk.MACHINE_PROPS, "itf": sk.ITF_PROPS, "action": sk.ACTION_PROPS}.get(
-        block.kind, {}
-    )
+    tables = {
+        "machine": sk.MACHINE_PROPS,
+        "yarn": sk.YARN_PROPS,
+        "itf": sk.ITF_PROPS,
+        "action": sk.ACTION_PROPS,
+    }
+    return tables.get(block.kind, {})
 
 
 def describe(spec: sk.PropSpec) -> str:
@@ -716,6 +769,12 @@ def _params(names: Names) -> Iterator[Item]:
 def _nodes(names: Names) -> Iterator[Item]:
     for name, (kind, _paths) in names.nodes.items():
         yield Item(name, Kind.Class, name, detail=kind)
+
+
+def _yarns(names: Names) -> Iterator[Item]:
+    """After `knit`: the declared yarns, and `main` (declared or not)."""
+    for name, detail in names.yarns.items():
+        yield Item(name, Kind.Variable, name, detail=detail)
 
 
 def _itf_paths(node: str, names: Names) -> Iterator[Item]:

@@ -243,19 +243,23 @@ _BY_TYPE = {"NUMBER": "number", "STRING": "string", "COMMENT": "comment", "INSTR
 _NAME_KIND = {
     "param": "variable",
     "node": "class",
+    "yarn": "variable",
     "pattern": "function",
     "action": "function",
     "shaper": "function",
     "import": "function",
 }
 _LIBRARY_FUNCTIONS = frozenset(QUERY_FUNCTIONS) | frozenset(ACTION_FUNCTIONS) | set(BUILTINS)
+_CONSTANT_KINDS = frozenset({"param", "yarn"})
+"""Names that are `readonly` (a design's constants): parameters and yarns."""
 
 
 @lru_cache(maxsize=1)
 def _choice_words() -> frozenset[str]:
     """Every enumerated property value (`half`, `uniform`, `zigzag`…) and context word."""
     words: set[str] = set(sk.CLOSINGS) | set(QUERY_WORDS) | set(ACTION_WORDS)
-    for table in (sk.MACHINE_PROPS, sk.ITF_PROPS, sk.ACTION_PROPS, *sk.NODE_PROPS.values()):
+    tables = (sk.MACHINE_PROPS, sk.YARN_PROPS, sk.ITF_PROPS, sk.ACTION_PROPS)
+    for table in (*tables, *sk.NODE_PROPS.values()):
         for spec in table.values():
             words.update(spec.choices)
     return frozenset(words)
@@ -287,11 +291,12 @@ def _tree_kinds(module: ast.Module, index: Index) -> Kinds:
     for node in module.walk():
         _classify(node, put)
     for sym in index.symbols:
-        mods = ("declaration", "readonly") if sym.kind == "param" else ("declaration",)
+        mods = ("declaration", "readonly") if sym.kind in _CONSTANT_KINDS else ("declaration",)
         kinds[(sym.span.start, sym.span.end)] = (_NAME_KIND[sym.kind], mods)
     for ref in index.refs:
         if ref.kind != "param":  # `#p` is one token, coloured whole
-            kinds[(ref.span.start, ref.span.end)] = (_NAME_KIND.get(ref.kind, "variable"), ())
+            ref_mods = ("readonly",) if ref.kind in _CONSTANT_KINDS else ()
+            kinds[(ref.span.start, ref.span.end)] = (_NAME_KIND.get(ref.kind, "variable"), ref_mods)
     for node in module.walk():
         if isinstance(node, ast.Prop) and node.name.name == "shaper":
             value = node.value.func if isinstance(node.value, ast.Call) else node.value
@@ -393,6 +398,11 @@ def _lexical(toks: list[Tok], i: int) -> tuple[str, tuple[str, ...]] | None:
     word = t.type == "NAME" or t.type.startswith("KW_") or t.type in ("NODE_KIND", "STEP")
     if word and after == "COLON" and before in ("LBRACE", "COMMA", "RBRACE", "NAME", "NUMBER"):
         return "property", ()
+    if t.type in ("NAME", "STEP") and before in ("KW_YARN", "KW_KNIT"):  # `knit main`: a yarn
+        mods = ("declaration", "readonly") if before == "KW_YARN" else ("readonly",)
+        return "variable", mods
+    if t.type == "KW_KNIT" and after == "LPAR":  # `knit(needle)`: an action step's operation
+        return "function", ("defaultLibrary",)
     if t.type.startswith("KW_") or t.type in _KEYWORDS:
         return "keyword", ()
     if t.type == "NODE_KIND":
@@ -479,6 +489,7 @@ def in_range(tokens: list[Semantic], start: int, end: int) -> list[Semantic]:
 _BLOCKS = (
     ast.NodeDecl,
     ast.MachineDecl,
+    ast.YarnDecl,
     ast.ItfStmt,
     ast.PatternLayer,
     ast.PatternDef,

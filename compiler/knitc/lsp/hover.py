@@ -2,13 +2,14 @@
 
 A hover answers from the analysis of the document (`Analysis`): the resolved skeleton for
 values (a parameter after its overrides, a node's properties with the defaults filled in,
-its interfaces and what they connect to), the stitch graph for sizes (stitches and courses
-per node), the property tables of `knitc.frontend.skeleton` for a property name, and short
-texts taken from `docs/language.md` for instructions, query functions and keywords.
+its interfaces and what they connect to, a yarn's carrier), the stitch graph for sizes
+(stitches and courses per node and per yarn), the property tables of
+`knitc.frontend.skeleton` for a property name, and short texts taken from
+`docs/language.md` for instructions, query functions and keywords.
 
 What is under the cursor is found in two steps: the index (`Analysis.index`) for the names
-it knows (params, nodes, definitions), then the syntax tree for the rest (a property name,
-an instruction after `set` or in a grid, a query call, a keyword). When the text does not
+it knows (params, nodes, yarns, definitions), then the syntax tree for the rest (a property
+name, an instruction after `set` or in a grid, a query call, a keyword). When the text does not
 parse, the last module that did is used (`Analysis.stale`): its spans are in an older text,
 so every answer is checked against the word actually at the cursor in the current text and
 dropped when they differ, rather than describing the wrong thing.
@@ -106,6 +107,9 @@ KEYWORDS: dict[str, str] = {
     "(the `knitc.defines` setting) overrides it.",
     "machine": "`machine { ... }`: the machine settings (model, needles, gauge, racking, "
     "carriers, default increase and casting); at most one block.",
+    "yarn": "`yarn NAME { ... }`: a yarn the pattern layers knit with (`knit NAME where Q`), "
+    "on its own `carrier`; `main`, the design's own yarn, always exists and may be declared "
+    "too.",
     "sheet": "`sheet NAME { ... }`: a flat sheet (`type: flat`, the default), or "
     "`type: cylinder` / `auto`; its interfaces are `bottom` and `top`.",
     "tube": "`tube NAME { ... }`: a tube, a sheet of type cylinder (2 × width stitches "
@@ -128,6 +132,9 @@ KEYWORDS: dict[str, str] = {
     "default), `zigzag`, `zigzagreturn`; no effect on a flat one (W503).",
     "set": "`set I where Q`: write one of the 17 instructions on the selected stitches.",
     "use": "`use ACTION where Q`: attach a stitch action to the selected stitches.",
+    "knit": "`knit YARN where Q`: knit the selected stitches with a declared yarn (`knit "
+    "main`: with the design's own again). A course is knitted with one yarn: stripes are "
+    "whole courses.",
     "apply": "`apply PATTERN(args) where Q`: run a pattern definition on the selection "
     "(arguments by position, then by name, then the defaults).",
     "where": "`where Q`: the stitches the statement applies to, a query; without it, all "
@@ -158,6 +165,7 @@ _ITEM_KEYWORD: dict[type, str] = {
     ast.Import: "import",
     ast.ParamDecl: "param",
     ast.MachineDecl: "machine",
+    ast.YarnDecl: "yarn",
     ast.PatternLayer: "pattern",
     ast.PatternDef: "pattern",
     ast.ActionDef: "action",
@@ -165,6 +173,7 @@ _ITEM_KEYWORD: dict[type, str] = {
     ast.Start: "start",
     ast.SetStmt: "set",
     ast.UseStmt: "use",
+    ast.KnitStmt: "knit",
     ast.ApplyStmt: "apply",
     ast.Let: "let",
     ast.If: "if",
@@ -273,6 +282,8 @@ def _hover_name(a: Analysis, item: Symbol | Ref, defines: Mapping[str, str]) -> 
         return param_markdown(a, item.name, defines)
     if item.kind == "node":
         return node_markdown(a, item.name)
+    if item.kind == "yarn":
+        return yarn_markdown(a, item.name)
     if item.kind in ("pattern", "action", "shaper", "import"):
         return definition_markdown(a, item.name, item.kind)
     return None
@@ -340,6 +351,8 @@ def _prop_table(
             return sk.NODE_PROPS.get(node.kind), f"`{node.kind}`"
         if isinstance(node, ast.MachineDecl):
             return sk.MACHINE_PROPS, "`machine`"
+        if isinstance(node, ast.YarnDecl):
+            return sk.YARN_PROPS, "`yarn`"
         if isinstance(node, ast.ItfStmt):
             return sk.ITF_PROPS, "interface"
         if isinstance(node, ast.ActionDef):
@@ -348,13 +361,24 @@ def _prop_table(
 
 
 def _resolved_here(a: Analysis, path: list[ast.Node], prop: ast.Prop) -> str:
-    """The value the property resolved to in its node, when that is known."""
-    decl = next((n for n in reversed(path) if isinstance(n, ast.NodeDecl)), None)
+    """The value the property resolved to in its node or yarn, when that is known."""
+    decl = next((n for n in reversed(path) if isinstance(n, ast.NodeDecl | ast.YarnDecl)), None)
     skel = a.skeleton
-    if decl is None or skel is None or a.stale or decl.name.name not in skel.nodes:
+    if decl is None or skel is None or a.stale:
         return ""
-    value = skel.nodes[decl.name.name].props.get(prop.name.name)
+    value: Any = None
+    if isinstance(decl, ast.NodeDecl) and decl.name.name in skel.nodes:
+        value = skel.nodes[decl.name.name].props.get(prop.name.name)
+    elif isinstance(decl, ast.YarnDecl) and _declares(skel, decl):
+        value = getattr(skel.yarns[decl.name.name], prop.name.name, None)
     return f"\n- here: `{_value(value)}`" if value is not None else ""
+
+
+def _declares(skel: sk.Skeleton, decl: ast.YarnDecl) -> bool:
+    """Whether the skeleton's yarn of that name is this declaration's: of a yarn declared
+    twice (E227) it holds the first."""
+    yarn = skel.yarns.get(decl.name.name)
+    return yarn is not None and yarn.span == decl.span
 
 
 def _node_kind(a: Analysis, name: str) -> str | None:
@@ -369,13 +393,18 @@ def _enclosing_kind(path: list[ast.Node]) -> str | None:
     return next((n.kind for n in reversed(path) if isinstance(n, ast.NodeDecl)), None)
 
 
+_UNSET = {"`yarn`": "chosen by knitc"}
+"""What a property without a default takes, by its owner when not the machine's value."""
+
+
 def prop_markdown(name: str, spec: sk.PropSpec, owner: str) -> str:
     """A property's entry of the tables: type, default, the values it takes, its doc."""
     lines = [f"**{name}**: {_kind_text(spec.kind)} — property of {owner}"]
     if spec.doc:
         lines += ["", spec.doc[0].upper() + spec.doc[1:] + "."]
     lines.append("")
-    default = "the machine's" if spec.default is None else f"`{_value(spec.default)}`"
+    unset = _UNSET.get(owner, "the machine's")
+    default = unset if spec.default is None else f"`{_value(spec.default)}`"
     lines.append(f"- default: {default}")
     values = _values_text(spec)
     if values:
@@ -693,6 +722,52 @@ def _interface_line(skel: sk.Skeleton, itf: sk.Interface) -> str:
     if partners:
         out += " → " + ", ".join(f"`{p}`" for p in partners)
     return out
+
+
+# ---- yarns ---------------------------------------------------------------------------------------
+
+
+def yarn_counts(graph: StitchGraph, name: str) -> tuple[int, int] | None:
+    """Stitches and courses the stitch graph knits with the yarn `name` (None: it has no
+    such yarn). A course is knitted with one yarn (E711), so the courses are whole."""
+    if graph.yarn is None or name not in graph.yarn_names:
+        return None
+    mine = graph.yarn == graph.yarn_names.index(name)
+    return int(np.count_nonzero(mine)), int(np.unique(graph.course[mine]).size)
+
+
+def yarn_markdown(a: Analysis, name: str) -> str | None:
+    """A yarn's declaration with its resolved carrier and carry-up, and how much of the
+    stitch graph it knits; `main` also when it is not declared (it always exists)."""
+    skel = a.skeleton
+    yarn = skel.yarns.get(name) if skel is not None else None
+    decl = a.index.declared("yarn", name)
+    if yarn is None:
+        if decl is not None and isinstance(decl.decl, ast.YarnDecl):
+            body = "\n".join(f"  {p.name.name}: {_expr_text(p.value)}" for p in decl.decl.props)
+            where = f"line {decl.decl.span.line}"
+            return f"```knit\nyarn {name} {{\n{body}\n}}\n```\n\n*Declared on {where}*"
+        if name != sk.MAIN_YARN:
+            return None
+        return f"**yarn** `{name}`\n\n{_MAIN_TEXT}"
+    carrier = "" if yarn.carrier is None else f"  carrier: {yarn.carrier}\n"
+    lines = [f"```knit\nyarn {name} {{\n{carrier}  carry_up: {yarn.carry_up}\n}}\n```"]
+    if yarn.carrier is None:
+        lines += ["", "Carrier: chosen by knitc"]
+    counts = yarn_counts(a.graph, name) if a.graph is not None else None
+    if counts is not None:
+        lines += ["", f"**{counts_text(*counts)}** knitted with it in the stitch graph"]
+    if name == sk.MAIN_YARN:
+        lines += ["", _MAIN_TEXT]
+    if yarn.span is not None:
+        lines += ["", f"*Declared on line {yarn.span.line}*"]
+    return "\n".join(lines)
+
+
+_MAIN_TEXT = (
+    "The design's own yarn: every stitch no `knit` statement gives another one; without a "
+    "declaration it takes the machine's first carrier."
+)
 
 
 # ---- definitions ----------------------------------------------------------------------------------

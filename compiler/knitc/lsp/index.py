@@ -2,14 +2,16 @@
 
 Navigation (definition, references, rename, symbols), hover and completion all start from
 "what is at this offset?": a `Symbol` (a declaration's name) or a `Ref` (a use). Names have
-five kinds with one namespace each: design parameters (`param p`, used as `#p`), nodes
+six kinds with one namespace each: design parameters (`param p`, used as `#p`), nodes
 (`tube body`, used in interfaces `body.top`, layers `pattern body {…}` and references
-`@body.length`), and the definitions a module declares or imports: patterns (`apply p(…)`),
-stitch actions (`use a`) and shapers (`shaper: s`, a word that is not one of the built-in
-shapers). A node is also named inside the strings of the queries `shape("node")` and
-`itf("node.top")`. The names of an import list (`import std.stitches (rib)`) are `Ref`s of
-kind `import`: which kind of definition each is, only the imported module knows. Locals of
-a body (`let`, `for`, pattern and shaper parameters) are not indexed.
+`@body.length`), yarns (`yarn red {…}`, used in `knit red where …`; `main`, the design's
+own yarn, may be used without a declaration), and the definitions a module declares or
+imports: patterns (`apply p(…)`), stitch actions (`use a`) and shapers (`shaper: s`, a word
+that is not one of the built-in shapers). A node is also named inside the strings of the
+queries `shape("node")` and `itf("node.top")`. The names of an import list (`import
+std.stitches (rib)`) are `Ref`s of kind `import`: which kind of definition each is, only
+the imported module knows. Locals of a body (`let`, `for`, pattern and shaper parameters)
+are not indexed.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from knitc.frontend import ast
 from knitc.frontend.skeleton import SHAPERS
 from knitc.source import Span
 
-KINDS = ("param", "node", "pattern", "action", "shaper")
+KINDS = ("param", "node", "yarn", "pattern", "action", "shaper")
 
 NODE_QUERIES = ("shape", "itf")
 """Pattern queries whose string argument starts with a node's name."""
@@ -111,6 +113,7 @@ def _declare(index: Index, item: ast.Node) -> None:
     kind = {
         ast.ParamDecl: "param",
         ast.NodeDecl: "node",
+        ast.YarnDecl: "yarn",
         ast.PatternDef: "pattern",
         ast.ActionDef: "action",
         ast.ShaperDef: "shaper",
@@ -131,6 +134,8 @@ def _use(index: Index, node: ast.Node) -> None:
         index.refs.append(Ref("pattern", node.pattern.name, node.pattern.span))
     elif isinstance(node, ast.UseStmt):
         index.refs.append(Ref("action", node.action.name, node.action.span))
+    elif isinstance(node, ast.KnitStmt):
+        index.refs.append(Ref("yarn", node.yarn.name, node.yarn.span))
     elif isinstance(node, ast.NodeDecl):
         _shaper_use(index, node)
     elif isinstance(node, ast.Call):

@@ -1,6 +1,6 @@
 """Quick fixes for knitc's diagnostics.
 
-Three mistakes have one obvious repair, which the diagnostic's hint already names:
+Four mistakes have one obvious repair, which the diagnostic's hint already names:
 
 - a misspelt name, whose hint says ``did you mean `X`?`` (every resolver check that
   suggests a close match): replace the name by `X`. The diagnostic's range is not always
@@ -11,7 +11,10 @@ Three mistakes have one obvious repair, which the diagnostic's hint already name
   others;
 - reverse stitches (or an action) that need the facing needles free, on a full-gauge
   tube, whose hint asks for `gauge: half`: set it on the node the statement patterns (or
-  in `machine`, for a global layer).
+  in `machine`, for a global layer);
+- an unknown yarn (`knit blue`, E228): declare it, `yarn blue { carrier: N }` on the
+  lowest carrier no yarn asks for, after the other yarns (or the machine block, or the
+  imports and parameters).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from typing import Any
 from lsprotocol import types
 
 from knitc.frontend import ast
+from knitc.frontend import skeleton as sk
 from knitc.lsp.analysis import Analysis
 from knitc.lsp.convert import SOURCE
 from knitc.lsp.definitions import stdlib_providers
@@ -35,6 +39,7 @@ _UNKNOWN = {"E217": "action", "E218": "pattern"}
 _SHAPER_VALUE = "E312"
 """`shaper: x` naming no shaper (among other bad choices)."""
 _GAUGE_HINT = "`gauge: half`"
+_UNKNOWN_YARN = "E228"
 
 
 @dataclass(frozen=True)
@@ -239,6 +244,57 @@ def _new_machine(text: str, module: ast.Module) -> Fix:
     return Fix("Knit the design in half gauge", (edit,), True)
 
 
+# ---- yarns ------------------------------------------------------------------------------------
+
+CARRIERS = range(1, 11)
+"""The carriers a yarn may ask for (`YARN_PROPS["carrier"]`)."""
+
+
+def yarn_fix(a: Analysis, start: int, end: int, preferred: bool) -> Fix | None:
+    """Declare the unknown yarn of `knit NAME` at `start`..`end` (the name)."""
+    module = a.module
+    if module is None or a.stale:
+        return None
+    m = re.fullmatch(r"[A-Za-z_]\w*", a.text[start:end])
+    if m is None or m.group() == sk.MAIN_YARN:
+        return None
+    name = m.group()
+    carrier = next((c for c in CARRIERS if c not in _asked_carriers(a, module)), None)
+    decl = f"yarn {name} {{ carrier: {carrier} }}" if carrier else f"yarn {name} {{}}"
+    items = module.items
+    yarns = [i for i in items if isinstance(i, ast.YarnDecl)]
+    machine = [i for i in items if isinstance(i, ast.MachineDecl)]
+    header = [i for i in items if isinstance(i, ast.Import | ast.ParamDecl)]
+    if yarns:
+        at = _line_end(a.text, yarns[-1].span.end)
+        edit = (at, at, "\n" + decl)
+    elif machine or header:
+        at = _line_end(a.text, (machine or header)[-1].span.end)
+        edit = (at, at, "\n\n" + decl)
+    else:
+        at = _line_start(a.text, items[0].span.start if items else 0)
+        edit = (at, at, decl + "\n\n")
+    return Fix(f"Declare yarn `{name}`", (edit,), preferred)
+
+
+def _asked_carriers(a: Analysis, module: ast.Module) -> set[int]:
+    """The carriers the design's yarns ask for, `main`'s included: as resolved, else as
+    written (a design that does not resolve)."""
+    skel = a.skeleton
+    if skel is not None:
+        return {y.carrier for y in skel.yarns.values() if y.carrier is not None}
+    asked = {sk.MACHINE_PROPS["carriers"].default[0]}  # `main`'s, unless it declares one
+    for item in module.items:
+        if not isinstance(item, ast.YarnDecl):
+            continue
+        for p in item.props:
+            if p.name.name == "carrier" and isinstance(p.value, ast.Number):
+                if item.name.name == sk.MAIN_YARN:
+                    asked.discard(sk.MACHINE_PROPS["carriers"].default[0])
+                asked.add(int(p.value.value))
+    return asked
+
+
 # ---- the handler -------------------------------------------------------------------------------
 
 
@@ -263,6 +319,10 @@ def fixes_for(
         gauge = gauge_fix(a, start)
         if gauge is not None:
             fixes.append(gauge)
+    if code == _UNKNOWN_YARN:
+        yarn = yarn_fix(a, start, end, preferred=rename is None)
+        if yarn is not None:
+            fixes.append(yarn)
     return fixes
 
 

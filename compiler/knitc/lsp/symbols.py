@@ -1,9 +1,10 @@
 """Navigation: go to definition, find references, rename, document and workspace symbols.
 
 Everything starts from the module's `index` ("which name is at this offset?"). Names live
-in three namespaces: parameters, nodes, and definitions (patterns, stitch actions and
+in four namespaces: parameters, nodes, yarns, and definitions (patterns, stitch actions and
 shapers share one, as in `frontend.definitions`, and so do the names of an import list).
-Parameters and nodes are a file's own; a definition may come from an import, whose
+Parameters, nodes and yarns are a file's own (the yarn `main` exists undeclared, and is
+never renamed: it is the design's own yarn); a definition may come from an import, whose
 declaration is found in the skeleton (which holds every imported definition with spans
 naming its file) or, when the file no longer resolves, by parsing the imported modules
 directly. The built-in stitch actions (`knit`, `purl`, ...) are `std.actions`'.
@@ -31,6 +32,7 @@ from knitc.frontend import ast
 from knitc.frontend.fmt import format_expr
 from knitc.frontend.names import BUILTIN_ACTIONS
 from knitc.frontend.parser import parse_source
+from knitc.frontend.skeleton import MAIN_YARN
 from knitc.lsp import index as ix
 from knitc.lsp.analysis import Analysis
 from knitc.lsp.definitions import params_text
@@ -48,6 +50,7 @@ Definition = ast.PatternDef | ast.ActionDef | ast.ShaperDef
 SPACES = {
     "param": "param",
     "node": "node",
+    "yarn": "yarn",
     "pattern": "def",
     "action": "def",
     "shaper": "def",
@@ -75,7 +78,8 @@ SKIP_DIRS = frozenset({".venv", "venv", "node_modules", "__pycache__"})
 
 @dataclass(frozen=True)
 class Target:
-    """A name under the cursor: its namespace (`param`, `node`, `def`), name and span."""
+    """A name under the cursor: its namespace (`param`, `node`, `yarn`, `def`), name and
+    span."""
 
     space: str
     name: str
@@ -281,8 +285,10 @@ def _renamable(a: Analysis, target: Target) -> Span:
     """The declaration a rename of `target` edits, or `RenameRefused`."""
     if a.stale:
         raise RenameRefused("the file has syntax errors: fix them before renaming")
-    decl = declaration(a, target)
     what = _describe(target)
+    if target.space == "yarn" and target.name == MAIN_YARN:
+        raise RenameRefused(f"{what} is the design's own yarn: its name cannot change")
+    decl = declaration(a, target)
     if decl is None:
         raise RenameRefused(f"{what} is not declared anywhere, so it cannot be renamed")
     if decl.file.startswith(STDLIB):
@@ -320,7 +326,7 @@ def rename(
     over the disk. Raises `RenameRefused`."""
     target = target_at(a, offset)
     if target is None:
-        raise RenameRefused("there is no parameter, node or definition name here to rename")
+        raise RenameRefused("there is no parameter, node, yarn or definition name here to rename")
     decl = _renamable(a, target)
     _check_name(a, target, new_name)
     if new_name == target.name:
@@ -356,14 +362,19 @@ def _check_name(a: Analysis, target: Target, new: str) -> None:
     if new == target.name:
         return
     if _taken(a, target.space, new):
-        kind = {"param": "parameter", "node": "node", "def": "definition"}[target.space]
+        kind = {"param": "parameter", "node": "node", "yarn": "yarn", "def": "definition"}[
+            target.space
+        ]
         shown = f"#{new}" if target.space == "param" else new
         raise RenameRefused(f"there is already a {kind} named `{shown}`")
 
 
 def _taken(a: Analysis, space: str, name: str) -> bool:
+    """Whether `name` already names something of `space`: `main` always names a yarn."""
     if local_declaration(a.index, space, name) is not None:
         return True
+    if space == "yarn":
+        return name == MAIN_YARN
     return space == "def" and name in imported_definitions(a)
 
 
@@ -444,7 +455,7 @@ def _check_parses(a: Analysis, files: list[FileEdit], new: str) -> None:
 
 K = types.SymbolKind
 DEF_SYMBOLS = {"pattern": K.Function, "action": K.Function, "shaper": K.Function}
-INDEX_SYMBOLS = {"param": K.Constant, "node": K.Class, **DEF_SYMBOLS}
+INDEX_SYMBOLS = {"param": K.Constant, "node": K.Class, "yarn": K.Object, **DEF_SYMBOLS}
 DETAIL_CHARS = 60
 
 
@@ -537,6 +548,10 @@ def _node(o: _Outline, n: ast.NodeDecl) -> types.DocumentSymbol:
     return o.symbol(n.name.name, K.Class, n.span, n.name.span, n.kind, o.props(n.props))
 
 
+def _yarn(o: _Outline, y: ast.YarnDecl) -> types.DocumentSymbol:
+    return o.symbol(y.name.name, K.Object, y.span, y.name.span, "yarn", o.props(y.props))
+
+
 def _layer(o: _Outline, p: ast.PatternLayer) -> types.DocumentSymbol:
     return o.symbol(f"pattern {p.target.name}", K.Event, p.span, p.target.span, "pattern layer")
 
@@ -579,6 +594,7 @@ _ITEMS: dict[type, Callable[[_Outline, Any], types.DocumentSymbol]] = {
     ast.Import: _import,
     ast.ParamDecl: _param,
     ast.MachineDecl: _machine,
+    ast.YarnDecl: _yarn,
     ast.NodeDecl: _node,
     ast.PatternLayer: _layer,
     ast.PatternDef: _pattern,
