@@ -398,7 +398,9 @@ def check_fabric(result: Result, fab: Fabric, *, dropped_ok: Iterable[int] = ())
 
 def _yarns(result: Result, fab: Fabric, ex: Expected) -> list[Mismatch]:
     """Each stitch's loop is on a yarn of the carrier its design yarn holds: a yarn that
-    declares a carrier is on that one, and no two of the design's yarns share one."""
+    declares a carrier is on that one, or, for a strand knitted beside another of the
+    same yarn (a sleeve beside the body), on a carrier no other yarn declares; and no two
+    of the design's yarns share a carrier."""
     g, skel = result.graph, result.skeleton
     assert g is not None and g.yarn is not None and skel is not None
     declared = [y.carrier for y in skel.yarn_list]
@@ -412,7 +414,8 @@ def _yarns(result: Result, fab: Fabric, ex: Expected) -> list[Mismatch]:
             continue
         used.setdefault(want, set()).add(carrier)
         asked = declared[want] if g.colourwork and want < len(declared) else None
-        if asked is not None and carrier != asked:
+        others = {c for i, c in enumerate(declared) if i != want and c is not None}
+        if asked is not None and carrier != asked and carrier in others:
             bad.append(
                 Mismatch(
                     "yarn",

@@ -132,8 +132,8 @@ class NameChecker:
                         "(e.g. `import std.actions`)",
                     )
             elif isinstance(stmt, ast.KnitStmt):
-                name = stmt.yarn.name
-                if name not in self.yarns:
+                name = stmt.yarn.name  # a yarn, or a definition's parameter naming one
+                if name not in self.yarns and name not in scope:
                     self.diags.error(
                         "E228",
                         f"unknown yarn `{name}`",

@@ -27,7 +27,7 @@ from typing import cast
 
 import numpy as np
 
-from knitc.diagnostics import Diagnostics
+from knitc.diagnostics import Diagnostics, Note
 from knitc.frontend import ast
 from knitc.frontend import skeleton as sk
 from knitc.lang.evaluate import EvalError, Evaluator, Value, Word
@@ -140,6 +140,11 @@ def _check_fair_isle(run: _Run) -> None:
         )
 
 
+def _shown(v: object) -> str:
+    """A value as a message shows it."""
+    return f'"{v}"' if isinstance(v, str) else repr(v)
+
+
 def _node_first_course(g: StitchGraph, c: int) -> int:
     """The first course of course c's node (courses count from it in messages)."""
     node = g.course_node[c]
@@ -214,8 +219,27 @@ class _Run:
     def knit_with(
         self, stmt: ast.KnitStmt, node: int | None, env: QueryEnv, within: np.ndarray | None
     ) -> None:
-        """`knit YARN where Q`: the selected stitches take the yarn."""
-        k = self.yarn_index.get(stmt.yarn.name)
+        """`knit YARN where Q`: the selected stitches take the yarn (in a definition,
+        `YARN` may be a parameter bound to a yarn's name, `apply checks("red")`)."""
+        name = stmt.yarn.name
+        if env.values and name in env.values:
+            bound = env.values[name]
+            k = self.yarn_index.get(bound) if isinstance(bound, str) else None
+            if k is None:
+                self.diags.error(
+                    "E228",
+                    f"`{name}` is {_shown(bound)}, not the name of a yarn",
+                    self.chain[-1] if self.chain else stmt.yarn.span,
+                    notes=[Note("used by this `knit`", stmt.yarn.span)],
+                    hint="pass a declared yarn's name in quotes, e.g. "
+                    + (f'"{next(iter(self.yarn_index))}"' if self.yarn_index else '"main"')
+                    + " (yarns: "
+                    + ", ".join(self.yarn_index or ["main"])
+                    + ")",
+                )
+                return
+        else:
+            k = self.yarn_index.get(name)
         if k is None:
             return  # the resolver reported it (E228)
         mask = self.select(node, stmt.where, env, within)

@@ -93,19 +93,21 @@ def _trace_stripes(g: StitchGraph, carry_up: Sequence[int]) -> tr.Trace:
             continue
         first = int(ids[0])
         want = int(design[c])
-        below = int(g.course[g.wale_prev[first, 0]]) if g.wale_prev[first, 0] >= 0 else -1
         chosen, flag = -1, 0
         for y in range(len(last_of) - 1, -1, -1):  # most recent strand first
             if of_yarn[y] != want:
                 continue
             a = last_of[y]
-            if tr.neighbours(g, a, first):
-                chosen, flag = y, 0
-                break
-            if tr.near(g, a, first) and (below < 0 or int(g.course[a]) == below):
-                chosen, flag = y, tr.JUMP
-                break
-            if 0 <= tr.carried(g, a, first) <= _at(carry_up, want):
+            ca = int(g.course[a])
+            if not _rested(g, design, ca, c, want):  # as `trace_courses` continues a yarn
+                if tr.neighbours(g, a, first):
+                    chosen, flag = y, 0
+                    break
+                if tr.near(g, a, first):
+                    chosen, flag = y, tr.JUMP
+                    break
+            # (rested: the courses knitted since, in knitting order, whatever their node)
+            elif c - ca - 1 <= _at(carry_up, want) and tr.carried(g, a, first) >= 0:
                 chosen, flag = y, tr.CARRY
                 break
         if chosen < 0:
@@ -125,6 +127,13 @@ def _trace_stripes(g: StitchGraph, carry_up: Sequence[int]) -> tr.Trace:
             flags[first] |= tr.TUCK_PREV
     tr.start_end_flags(yarn, flags)
     return tr.Trace(stitch, yarn, dirs, flags, passes=1, method="courses")
+
+
+def _rested(g: StitchGraph, design: np.ndarray, ca: int, c: int, want: int) -> bool:
+    """Whether a yarn that knitted course `ca` rested, while another yarn knitted a
+    course of the same node as `ca` or `c` in between, before course `c`."""
+    nodes = (g.course_node[ca], g.course_node[c])
+    return any(design[k] != want and g.course_node[k] in nodes for k in range(ca + 1, c))
 
 
 def _at(values: Sequence[int], i: int) -> int:

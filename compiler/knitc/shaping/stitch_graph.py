@@ -106,15 +106,26 @@ class StitchGraph:
         return bool(self.yarn.any())
 
     def course_yarn(self) -> np.ndarray:
-        """int8 per course: the yarn that carries it (its stitches' yarn; in a course of
-        several yarns, fair isle, the one knitting most of it, the lowest on a tie). The
-        others float behind and knit their own stitches in passes of their own."""
+        """int8 per course: the yarn that carries it (its stitches' yarn). In a course of
+        several yarns (fair isle) it is the yarn that carried the node's course before, if
+        it knits here too, so a band does not hand the course from yarn to yarn; else the
+        one knitting most of it (the lowest on a tie). The others float behind and knit
+        their own stitches in passes of their own."""
         assert self.yarn is not None
         out = self.yarn[self.course_start].copy() if self.n_stitches else self.yarn[:0]
         first = np.repeat(out, self.course_len)
-        for c in np.unique(self.course[self.yarn != first]).tolist():
-            counts = np.bincount(self.yarn[self.course_ids(c)])
-            out[c] = int(np.argmax(counts))
+        mixed = np.zeros(self.n_courses, bool)
+        mixed[self.course[self.yarn != first]] = True
+        last: dict[int, int] = {}  # node -> the yarn of its last course
+        for c in range(self.n_courses):
+            node = int(self.course_node[c])
+            if mixed[c]:
+                counts = np.bincount(self.yarn[self.course_ids(c)])
+                before = last.get(node, -1)
+                keep = 0 <= before < counts.size and counts[before] > 0
+                out[c] = before if keep else int(np.argmax(counts))
+            if self.course_len[c]:
+                last[node] = int(out[c])
         return out
 
     @property
