@@ -20,6 +20,8 @@ the loops that stand for its designed wale predecessors. The exceptions, each na
   knits through them or misses and lets them stand for it;
 - **closed bind-off**: a bind-off chain that ends next to a live stitch is closed onto it,
   so that stitch's child also pulls the chain's last loop;
+- **float catch**: a fair isle yarn's tuck on a needle whose stitch it floats behind
+  (`yarn { tuck_every }`) is knitted in by the stitch above, with that stitch's loop;
 - **miss** (M, or an action that misses) forms no loop: the loops below stand for it;
   **tuck** (T, or an action's tuck) adds a loop that the next knit pulls through together
   with the loops below (the next stitch's own check holds it to that); a **split action**
@@ -170,6 +172,7 @@ def expect(result: Result, fab: Fabric) -> Expected:
     missed: set[int] = set()  # stitches whose action misses their needle
     cast_on: set[int] = set()
     cast_off: set[int] = set()
+    caught: set[int] = set()  # a fair isle yarn's tucks on its float (`float_catch`)
     for k, op in enumerate(prog.ops):
         if op.kind == "miss" and op.phase == "action" and op.stitch >= 0:
             missed.add(op.stitch)
@@ -182,6 +185,8 @@ def expect(result: Result, fab: Fabric) -> Expected:
                 cast_on.update(by_op[k])
             elif op.phase == "cast_off":
                 cast_off.update(by_op[k])
+            elif op.phase == "float_catch":
+                caught.update(by_op[k])
     n = g.n_stitches
     plain_ok = {d.span for d in result.diagnostics if d.code == "W603" and d.span is not None}
     assert result.schedule is not None
@@ -245,9 +250,10 @@ def expect(result: Result, fab: Fabric) -> Expected:
             if not got and _kickback(g, s, parents, loop, stands, fab):
                 out.kickbacks.add(s)
                 continue
-            if below <= got and got - below <= cast_off:
+            if below <= got and (got - below <= cast_off or got - below <= caught):
                 # a bind-off closed onto its live neighbour: the chain's last loop is knitted
-                # in with the neighbour's next stitch
+                # in with the neighbour's next stitch; a fair isle yarn's catch on the
+                # needle below is knitted in the same way
                 out.realized += [(p, s) for p in parents]
                 _check_pull(g, fab, s, lp, bool(home[s] == 0), plain_ok, bad)
                 continue

@@ -223,6 +223,21 @@ pattern t {
   knit red where courses(17:20) and filter(wale % 2 == 0)
 }
 """,
+    # long floats caught by tucks, on a sheet and on a tube
+    "fair-tucked": """
+yarn red { carrier: 5, tuck_every: 6 }
+sheet s { length: 12, width: 60 }
+pattern s {
+  knit red where courses(4:7) and filter(wale % 30 == 5)
+}
+""",
+    "fair-tucked-tube": """
+yarn red { carrier: 5, tuck_every: 5 }
+tube t { length: 14, width: 30 }
+pattern t {
+  knit red where courses(3:8) and filter(wale % 15 == 2)
+}
+""",
     # `main` on a carrier of its own, another yarn on the next free one (the machine's)
     "declared-main": """
 machine { carriers: [3] }
@@ -328,3 +343,13 @@ pattern s {
     r = compile_source(text, "long.knit", until="machine")
     floats = [d for d in r.diagnostics if d.code == "W803"]
     assert floats and all(d.span is not None and d.span.line == 5 for d in floats)
+
+
+def test_tuck_every_catches_long_floats_and_silences_the_warning():
+    r = _compiled("fair-tucked")
+    assert not [d for d in r.diagnostics if d.code == "W803"]
+    assert r.program is not None
+    catches = [op for op in r.program.ops if op.phase == "float_catch"]
+    assert catches and all(op.kind == "tuck" and op.carriers == (5,) for op in catches)
+    # a float of 30 needles caught every 6: four tucks per course of the band
+    assert len(catches) == 4 * 4

@@ -95,6 +95,8 @@ class CodegenOptions:
     None: any). The first is `main`'s, which takes the machine's carriers in order."""
     yarn_carry_up: Sequence[int] = ()
     """How many courses each yarn may rest at the side (`yarn { carry_up }`)."""
+    yarn_tuck_every: Sequence[int] = ()
+    """Each yarn's float catching in fair isle (`yarn { tuck_every }`; 0: none)."""
 
     def cast_on_for(self, names: tuple[str, ...]) -> str:
         return next(
@@ -128,6 +130,7 @@ def options_from_skeleton(skel: sk.Skeleton) -> CodegenOptions:
         actions=action_table(skel),
         yarn_carriers=tuple(y.carrier for y in skel.yarn_list),
         yarn_carry_up=tuple(y.carry_up for y in skel.yarn_list),
+        yarn_tuck_every=tuple(y.tuck_every for y in skel.yarn_list),
     )
 
 
@@ -896,24 +899,85 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
     dirs = gen.dirs[chunk]
     dirs = np.where(dirs == 0, 1, dirs)
     base = int(gen.course_yarn[g.course[stitches[0]]])
+    done = np.zeros(len(stitches), bool)  # knitted in this course already
+    every = gen.opts.yarn_tuck_every
     for y in [base] + sorted(set(ys.tolist()) - {base}):
         sel = ys == y
         if not sel.any():
             continue
         ids = stitches[sel].tolist()
         carrier = ctx.carrier if y == base else _back_carrier(gen, y, ids[0])
-        gen.bed.knit_run(
-            ids,
-            dirs[sel].tolist(),
-            list(map(gen.positions.__getitem__, ids)),
-            plain[sel].tolist(),
-            empty[sel].tolist(),
-            carrier,
-            None if y == base else _yarn_spans(gen, ids),
-        )
+        spans = None if y == base else _yarn_spans(gen, ids)
+        n = every[y] if y < len(every) else 0
+        cuts = _catches(gen, stitches, sel, done, n) if n > 0 else {}
+        at = np.nonzero(sel)[0]
+        start = 0
+        for j in range(len(at) + 1):  # runs of the yarn's knits, a catch between two
+            if j < len(at) and int(at[j]) not in cuts:
+                continue
+            part = at[start:j]
+            if part.size:
+                gen.bed.knit_run(
+                    stitches[part].tolist(),
+                    dirs[part].tolist(),
+                    [gen.positions[int(s)] for s in stitches[part]],
+                    plain[part].tolist(),
+                    empty[part].tolist(),
+                    carrier,
+                    spans,
+                )
+            if j < len(at):
+                for t in cuts[int(at[j])]:
+                    _catch(gen, carrier, int(stitches[t]), int(dirs[t]), int(ids[0]))
+            start = j
+        done |= sel
     _lead_out(gen, ctx, chunk)
     if gen.bed.rack:
         gen.bed.set_rack(0)
+
+
+def _catches(
+    gen: _Gen, stitches: np.ndarray, sel: np.ndarray, done: np.ndarray, every: int
+) -> dict[int, list[int]]:
+    """Where a fair isle yarn (its stitches `sel` of the pass) catches its floats: index of
+    the yarn's stitch -> the stitches before it, in its float, whose needles it tucks on,
+    one every `every` needles. Only on a stitch knitted already in this course (its loop is
+    new; the tuck rides on it and is knitted in by the next course), on the bed the float
+    runs along, that has a next course."""
+    g = gen.g
+    at = np.nonzero(sel)[0].tolist()
+    out: dict[int, list[int]] = {}
+    for i, j in zip(at, at[1:], strict=False):
+        if j - i - 1 < every:
+            continue
+        bed = gen.positions[int(stitches[i])][0]
+        last = gen.positions[int(stitches[i])][1]
+        for t in range(i + 1, j):
+            s = int(stitches[t])
+            pos = gen.positions[s]
+            if (
+                abs(pos[1] - last) >= every
+                and done[t]
+                and pos[0] == bed
+                and g.wale_next[s, 0] >= 0
+                and abs(gen.positions[int(stitches[j])][1] - pos[1]) > 1
+            ):
+                out.setdefault(j, []).append(t)
+                last = pos[1]
+    return out
+
+
+def _catch(gen: _Gen, carrier: int, s: int, d: int, first: int) -> None:
+    """A fair isle yarn's float caught on stitch s's needle: a tuck on its new loop, in the
+    pass's direction, at the stitch's own number, pointing at the `knit YARN` statement."""
+    g = gen.g
+    origin = -1 if g.yarn_origin is None else int(g.yarn_origin[first])
+    span = g.spans[origin] if origin >= 0 else gen.bed.span(s)
+    ctx = cast.Ctx(gen.bed, carrier, gen.opts.numbers, span)
+    half = bool(g.course_gauge[g.course[s]] == 2)
+    number = gen.opts.numbers.knit_half_gauge if half else gen.opts.numbers.knit
+    with gen.bed.prog.code_pass("float_catch"):
+        cast.emit(ctx, "tuck", d or 1, gen.positions[s], -1, number)
 
 
 def _yarn_spans(gen: _Gen, ids: list[int]) -> dict[int, Span | None]:

@@ -583,7 +583,9 @@ class _Resolver:
                 )
             if carrier is not None:
                 owner.setdefault(carrier, name)
-            out[name] = sk.Yarn(name, carrier, carry, decl.span if decl else None)
+            tuck = values.get("tuck_every", 0)
+            assert isinstance(tuck, int)
+            out[name] = sk.Yarn(name, carrier, carry, decl.span if decl else None, tuck)
         return out
 
     # -- interfaces, connections, starts

@@ -129,6 +129,14 @@ YARN_PROPS: dict[str, PropSpec] = {
         doc="courses the yarn may rest at the side between two of its stripes, carried up "
         "the edge; a longer rest ends the yarn and brings it in again (0: always)",
     ),
+    "tuck_every": PropSpec(
+        "int",
+        0,
+        min=0,
+        max=100,
+        doc="in fair isle, a float of the yarn is caught by a tuck every this many needles "
+        "(0: never)",
+    ),
 }
 
 ACTION_PROPS: dict[str, PropSpec] = {
@@ -259,6 +267,7 @@ class Yarn:
     """Declared carrier, or None: code generation chooses one."""
     carry_up: int
     span: Span | None = None
+    tuck_every: int = 0
 
 
 @dataclass
@@ -657,7 +666,12 @@ def to_json(skel: Skeleton) -> dict[str, Any]:
         **(
             {
                 "yarns": [
-                    {"name": y.name, "carrier": y.carrier, "carry_up": y.carry_up}
+                    {
+                        "name": y.name,
+                        "carrier": y.carrier,
+                        "carry_up": y.carry_up,
+                        "tuck_every": y.tuck_every,
+                    }
                     for y in skel.yarn_list
                 ]
             }
