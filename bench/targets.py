@@ -48,6 +48,15 @@ pattern s {
 }
 """
 PLAIN = "// sheet-100k: the same sheet, plain\nsheet s { length: 400, width: 250 }\n"
+FAIR_ISLE = """\
+// fair-isle-100k: the plain sheet, every course in two yarns (issue 17's colour target)
+import std.colour (checks)
+yarn red { carrier: 5 }
+sheet s { length: 400, width: 250 }
+pattern s {
+  apply checks("red")
+}
+"""
 TUBE_100K = "tube t { length: 400, width: 125 }\n"
 TUBE_1M = "tube t { length: 1000, width: 500 }\n"
 
@@ -66,6 +75,7 @@ def run_cases(tmp: Path) -> dict[str, dict]:
         "check-ten-lines": _compile(tmp, "ten", TEN_LINES, 7, check=True),
         "sheet-100k": _compile(tmp, "sheet-100k", PLAIN, 3),
         "lace-100k": _compile(tmp, "lace-100k", LACE, 3),
+        "fair-isle-100k": _compile(tmp, "fair-isle-100k", FAIR_ISLE, 3),
         "tube-100k": _compile(tmp, "tube-100k", TUBE_100K, 3),
         "tube-1M": _compile(tmp, "tube-1M", TUBE_1M, 1),
     }
@@ -96,6 +106,8 @@ def judge(cases: dict[str, dict], peer: dict[str, Any], orig: dict[str, Any]) ->
                 False),
         _target("lace-and-cable sheet / plain sheet (100k)", ratio("lace-100k", "sheet-100k"),
                 1.3, "x", False),
+        _target("fair isle sheet / plain sheet (100k; issue 17)",
+                ratio("fair-isle-100k", "sheet-100k"), 2.0, "x", False),
     ]
     for key, what, limit in (
         ("knit_script_sheet_50k", "knit-script / knitc, 50k-stitch sheet", peers.KS_TARGET),
