@@ -3,7 +3,8 @@
 `designs()` starts from `programs()` of test_props_resolve.py (random valid garments: trees
 of sheets, tubes, joints and splits with consistent sizes, `-D` overrides, casting, starts)
 and adds what that generator leaves out: pattern layers with every statement kind (`set`,
-`use`, `apply`, `draw`/`stretch`/`tile`, `let`) over random queries (every query of the
+`use`, `apply`, `draw`/`stretch`/`tile`, `let`, `knit YARN` and the `std.colour` charts,
+with yarns declared on free, shared or the main carrier) over random queries (every query of the
 language's table, chained and combined, with ranges of every form), imported stdlib
 patterns with random arguments, user actions (every machine operation, `if`/`for`), user
 shapers on extra shaped pieces, and a `machine` block. Values are drawn from in-range and
@@ -26,6 +27,8 @@ from test_stdlib_patterns import stdlib_patterns
 
 ACTIONS = ["knit", "purl", "tuck", "miss", "kickback", "split"]
 STD_PATTERNS = {m: stdlib_patterns(m) for m in ("std.stitches", "std.motifs")}
+STD_COLOUR = ["peerie", "checks", "diamonds"]
+YARNS = ["main", "red", "blue"]
 STD_SHAPERS = ["zigzag", "edges"]
 _HOSTILE = ["1e999", "10^20", "10^400", "1e-320", "0.0", "1e300 * 10", "0 - 10^30"]
 NUMBERS = st.integers(0, 63).flatmap(
@@ -110,7 +113,12 @@ def _predicate(draw) -> str:
 
 def _pattern_stmt(draw, nodes: list[str], actions: list[str], pats: list[tuple[str, str]]) -> str:
     where = "" if draw(st.integers(0, 4)) == 0 else f" where {_query(draw, nodes)}"
-    kind = draw(st.sampled_from(["set", "set", "set", "use", "apply", "draw", "let"]))
+    kind = draw(st.sampled_from(["set", "set", "set", "use", "apply", "draw", "let", "knit"]))
+    if kind == "knit":  # stripes, fair isle, or a mixed course it refuses (E711)
+        if draw(st.integers(0, 2)) == 0:
+            chart = draw(st.sampled_from(STD_COLOUR))
+            return f'apply {chart}("{draw(st.sampled_from([*YARNS, "nope"]))}"){where}'
+        return f"knit {draw(st.sampled_from([*YARNS, 'nope']))}{where}"
     if kind == "set":
         return f"set {draw(st.sampled_from(INSTRUCTIONS))}{where}"
     if kind == "use":
@@ -252,6 +260,13 @@ def designs(draw) -> Design:
         items.append(f"pattern {target} {{\n  " + "\n  ".join(body) + "\n}")
     if "machine {" not in prog.text and draw(st.booleans()):
         items.append(_machine(draw))
+    text_so_far = "\n".join(items)
+    if "knit " in text_so_far or "(\"" in text_so_far:  # the yarns its layers name
+        items.insert(0, "import std.colour")
+        for name in YARNS[1:]:
+            carrier = draw(st.sampled_from(["", "carrier: 5", "carrier: 6", "carrier: 3"]))
+            extra = draw(st.sampled_from(["", "carry_up: 0", "carry_up: 3", "tuck_every: 4"]))
+            items.append(f"yarn {name} {{ {carrier}  {extra} }}")
     order = list(draw(st.permutations(items[1:])) if draw(st.booleans()) else items[1:])
     if "#n" in "".join(order):
         order.append(f"param n = {draw(st.integers(0, 6))}")

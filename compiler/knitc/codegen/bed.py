@@ -40,7 +40,13 @@ def needle(pos: Pos) -> Needle:
 
 
 class Unsupported(Exception):
-    """Something the code passes cannot plan yet: reported as E602 at the course's line."""
+    """Something the code passes cannot plan yet: reported as E602 at the course's line,
+    with `hint` (else the transfer planner's: most of these are transfers it found no way
+    to make)."""
+
+    def __init__(self, message: str, hint: str | None = None) -> None:
+        super().__init__(message)
+        self.hint = hint
 
 
 @dataclass

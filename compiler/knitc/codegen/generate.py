@@ -261,7 +261,8 @@ def generate(
             "E602",
             f"cannot generate machine code: {exc}",
             gen.where_span,
-            hint="the transfer planner found no sequence of transfers within the "
+            hint=exc.hint
+            or "the transfer planner found no sequence of transfers within the "
             "machine's racking limit and free needles; allow more racking "
             "(`machine { racking: ... }`) or shape more gradually",
         )
@@ -399,7 +400,11 @@ def _take_carrier(gen: _Gen, free: list[int], yarn: int) -> int:
     for i, c in enumerate(free):
         if c not in reserved:
             return free.pop(i)
-    raise Unsupported("more than 10 yarns would be in use at once")
+    raise Unsupported(
+        "more than 10 yarns would be in use at once",
+        hint="a machine has 10 carriers: let yarns rest less before they are taken out "
+        "(`yarn { carry_up: ... }`), or use fewer yarns in the same courses",
+    )
 
 
 def _lead_out(gen: _Gen, ctx: cast.Ctx, sub: np.ndarray) -> None:
