@@ -49,7 +49,14 @@ def test_a_design_costs_few_rows_beyond_its_passes(path):
     r = compile_file(str(path), until="machine")
     total = sum(rows(r).values())
     yarns = sum(1 for o in r.program.ops if o.kind in ("in", "inhook"))
-    assert total - 3 * yarns <= 1.05 * estimate_passes(r.program.ops)
+    # a fair isle yarn moves its carrier to where its next course's stitches start, a row
+    # of its own when they start beyond where it stopped: up to one per course it floats in
+    g = r.graph
+    fair = 0
+    if g is not None and g.colourwork and g.yarn is not None:
+        per_course = [len(set(g.yarn[g.course_ids(c)].tolist())) - 1 for c in range(g.n_courses)]
+        fair = sum(per_course)
+    assert total - 3 * yarns - fair <= 1.05 * estimate_passes(r.program.ops)
 
 
 def test_a_yarn_start_needs_no_empty_pass_before_its_release():

@@ -261,7 +261,7 @@ def designs(draw) -> Design:
     if "machine {" not in prog.text and draw(st.booleans()):
         items.append(_machine(draw))
     text_so_far = "\n".join(items)
-    if "knit " in text_so_far or "(\"" in text_so_far:  # the yarns its layers name
+    if "knit " in text_so_far or '("' in text_so_far:  # the yarns its layers name
         items.insert(0, "import std.colour")
         for name in YARNS[1:]:
             carrier = draw(st.sampled_from(["", "carrier: 5", "carrier: 6", "carrier: 3"]))

@@ -388,11 +388,13 @@ def _run(gen: _Gen) -> None:
 
 def _take_carrier(gen: _Gen, free: list[int], yarn: int) -> int:
     """A carrier for a new strand of the design's yarn `yarn`: the one the yarn asked for
-    when it is free, else the first free one no other yarn asked for. In a one-yarn design
-    the strands take the machine's carriers in the order `free` lists them (a carrier
-    taken out goes last); with stripes a yarn comes back on its own carrier."""
+    when it is free, else the first free one no other yarn asked for. `main`'s strands
+    take the machine's carriers in the order `free` lists them, `main`'s own first, a
+    carrier taken out going last, as in a one-yarn design (a sleeve beside the body needs
+    a carrier of its own; the same carrier brought straight back in would drag its cut
+    yarn across, as the independent machine sees it); another yarn comes back on its own."""
     asked = gen.opts.yarn_carriers
-    want = asked[yarn] if yarn < len(asked) and gen.g.colourwork else None
+    want = asked[yarn] if 0 < yarn < len(asked) and gen.g.colourwork else None
     if want is not None and want in free:
         free.remove(want)
         return want
@@ -936,7 +938,8 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
                     _catch(gen, carrier, int(stitches[t]), int(dirs[t]), int(ids[0]))
             start = j
         done |= sel
-    _lead_out(gen, ctx, chunk)
+        if y == base:  # (its lead-out in its own pass, before the other yarns')
+            _lead_out(gen, ctx, chunk)
     if gen.bed.rack:
         gen.bed.set_rack(0)
 
