@@ -38,8 +38,9 @@ YARNS = ("red", "blue", "gold")
 
 
 @st.composite
-def striped(draw) -> str:
-    """A sheet or tube (maybe widening) and stripes of 1 to 3 yarns in random runs."""
+def striped(draw, fair_isle: bool = False) -> str:
+    """A sheet or tube (maybe widening) and stripes of 1 to 3 yarns in random runs; with
+    `fair_isle`, some runs are bands of two or more yarns per course."""
     kind = draw(st.sampled_from(["sheet", "tube"]))
     length = draw(st.integers(3, 24))
     w0 = draw(st.integers(3, 10))
@@ -56,8 +57,13 @@ def striped(draw) -> str:
     while c < length:
         run = draw(st.integers(1, 5))
         yarn = draw(st.sampled_from(("main",) + YARNS[:n_yarns]))
+        where = f"courses({c}:{min(c + run, length) - 1})"
         if yarn != "main":
-            lines.append(f"  knit {yarn} where courses({c}:{min(c + run, length) - 1})")
+            # a band of two (or more) yarns; not over increases (E711), decreases are fine
+            if fair_isle and w1 <= w0 and draw(st.booleans()):
+                k, r = draw(st.integers(2, 5)), draw(st.integers(0, 4))
+                where += f" and filter(wale % {k} == {r % k})"
+            lines.append(f"  knit {yarn} where {where}")
         c += run
     lines.append("}")
     return "\n".join(lines) + "\n"
@@ -140,6 +146,32 @@ def test_each_course_is_one_strand_of_its_yarn_carried_at_most_carry_up(text):
             rested = tr.carried(g, int(t.stitch[i]), int(t.stitch[j]))
             name = g.yarn_names[int(g.yarn[t.stitch[j]])]
             assert 0 <= rested <= carry_up[name]
+
+
+@settings(max_examples=40, deadline=None)
+@given(text=striped(fair_isle=True))
+def test_random_stripes_and_fair_isle_compile_clean_through_every_verifier(text):
+    """Through code generation and knitc's own machine simulation, with every IR's
+    verifier run after its stage: no error, and only the float hazard a chart can make."""
+    note(text)
+    r = compile_source(text, "fair.knit", until="machine", verify=True)
+    assert r.program is not None, r.diagnostics.render()
+    codes = {d.code for d in r.diagnostics}
+    assert not r.diagnostics.has_errors and codes <= {"W803"}, r.diagnostics.render()
+
+
+@settings(max_examples=3, deadline=None)
+@given(texts=st.lists(striped(fair_isle=True), min_size=8, max_size=8))
+def test_random_stripes_and_fair_isle_knit_as_designed(texts):
+    """Eight random designs at a time (one oracle process for all): each runs clean on the
+    independent machine and knits its design, every loop on its yarn's carrier."""
+    results = []
+    for text in texts:
+        note(text)
+        r = compile_source(text, "fair.knit", until="machine")
+        assert r.program is not None, r.diagnostics.render()
+        results.append(r)
+    assert_knits_as_designed(results, names=[f"design {i}" for i in range(len(results))])
 
 
 # ---- designs through the whole pipeline ---------------------------------------------------------
