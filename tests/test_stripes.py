@@ -255,6 +255,20 @@ pattern t {
   knit red where courses(17:20) and filter(wale % 2 == 0)
 }
 """,
+    # a colour chart of three yarns as one drawn layer
+    "colour-chart": '''
+yarn red { carrier: 5 }
+yarn navy { carrier: 6 }
+tube t { length: 24, width: 16 }
+pattern t {
+  tile """
+    red  .    .    navy
+    .    red  navy .
+    .    navy red  .
+    navy .    .    red
+  """ where courses(6:13)
+}
+''',
     # long floats caught by tucks, on a sheet and on a tube
     "fair-tucked": """
 yarn red { carrier: 5, tuck_every: 6 }
@@ -385,3 +399,13 @@ def test_tuck_every_catches_long_floats_and_silences_the_warning():
     assert catches and all(op.kind == "tuck" and op.carriers == (5,) for op in catches)
     # a float of 30 needles caught every 6: four tucks per course of the band
     assert len(catches) == 4 * 4
+
+
+def test_a_colour_chart_gives_each_cell_its_yarn():
+    r = _compiled("colour-chart")
+    g = r.graph
+    assert g is not None and g.yarn is not None
+    names = [g.yarn_names[y] for y in g.yarn.tolist()]
+    first = g.course_ids(6)
+    assert [names[s] for s in first[:4]] == ["navy", "main", "main", "red"]  # the last row
+    assert {names[s] for s in g.course_ids(5)} == {"main"}

@@ -201,15 +201,15 @@ class NameChecker:
             )
 
     def _check_grid(self, grid: ast.Grid, mode: str) -> None:
-        for kind, cell in cell_problems(grid, mode):
+        for kind, cell in cell_problems(grid, mode, self.yarns):
             if kind == "unknown":
                 self.diags.error(
                     "E220",
-                    f"`{cell.text}` is not a pattern instruction",
+                    f"`{cell.text}` is not a pattern instruction or a yarn",
                     cell.span,
-                    hint=_suggest(cell.text, INSTRUCTIONS)
+                    hint=_suggest(cell.text, [*INSTRUCTIONS, *sorted(self.yarns)])
                     or "use K P T M FR1 FR2 FL1 FL2 BR1 BR2 BL1 BL2 XR+ XR- XL+ "
-                    "XL- S, or `.` to leave a stitch as it is",
+                    "XL- S, a declared yarn, or `.` to leave a stitch as it is",
                 )
             else:
                 self.diags.error(

@@ -1,6 +1,8 @@
 """Drawn layers: `draw`, `stretch` and `tile GRID where Q` (thesis ch. 5.3.3, 6.9.4).
 
-A drawn layer writes a chart of instructions onto the stitches its query selects. The chart
+A drawn layer writes a chart of instructions onto the stitches its query selects (and a
+colour chart, whose cells name the design's yarns, gives those stitches the yarn: the
+cells may mix both, `.` leaves a stitch as it is). The chart
 is read like a knitting chart (`patterning.raster`): its last row lands on the selection's
 first course, its first column on the selection's left wale; `.` is transparent. The three
 modes are the original's singular, scalable and tileable drawings:
@@ -56,6 +58,10 @@ def apply_grid(run, stmt: ast.GridStmt, node, env, within) -> None:
     m = vals >= 0
     run.instr[m] = vals[m].astype(run.instr.dtype)
     run.mark(m, stmt.span)
+    yarns = raster.chart_values(grid, lambda t: -1 if t in INSTRUCTIONS else run.yarn_index[t])
+    if (yarns >= 0).any():  # a colour chart: its yarn cells knit with those yarns
+        placed = raster.place(yarns, fr, stmt.mode)
+        run.set_yarn(placed >= 0, placed, stmt.span)
     if stmt.mode == "draw" and raster.overflow(values, fr):
         _once(
             run,
@@ -126,16 +132,16 @@ def _instructions(run, stmt: ast.GridStmt, grid: ast.Grid) -> np.ndarray | None:
             "first; use `.` for a stitch the drawing leaves as it is",
         )
         ok = False
-    for kind, cell in raster.cell_problems(grid, stmt.mode):
+    for kind, cell in raster.cell_problems(grid, stmt.mode, run.yarn_index):
         ok = False
         if kind == "unknown":
             _once(
                 run,
                 "E220",
-                f"`{cell.text}` is not a pattern instruction",
+                f"`{cell.text}` is not a pattern instruction or a yarn",
                 cell.span,
-                hint="use K P T M FR1 FR2 FL1 FL2 BR1 BR2 BL1 BL2 XR+ XR- XL+ XL- S, "
-                "or `.` to leave a stitch as it is",
+                hint="use K P T M FR1 FR2 FL1 FL2 BR1 BR2 BL1 BL2 XR+ XR- XL+ XL- S, a "
+                "declared yarn, or `.` to leave a stitch as it is",
             )
         else:
             _once(
@@ -147,4 +153,4 @@ def _instructions(run, stmt: ast.GridStmt, grid: ast.Grid) -> np.ndarray | None:
             )
     if not ok:
         return None
-    return raster.chart_values(grid, INSTRUCTIONS.index)
+    return raster.chart_values(grid, lambda t: INSTRUCTIONS.index(t) if t in INSTRUCTIONS else -1)

@@ -242,12 +242,16 @@ class _Run:
             k = self.yarn_index.get(name)
         if k is None:
             return  # the resolver reported it (E228)
-        mask = self.select(node, stmt.where, env, within)
+        self.set_yarn(self.select(node, stmt.where, env, within), k, stmt.span)
+
+    def set_yarn(self, mask: np.ndarray, yarn: int | np.ndarray, span: Span) -> None:
+        """The stitches in `mask` take `yarn` (a yarn index, or one per stitch), written by
+        the statement at `span`."""
         if self.yarn is None or self.yarn_origin is None:
             self.yarn = np.zeros(self.g.n_stitches, np.int8)
             self.yarn_origin = np.full(self.g.n_stitches, -1, np.int32)
-        self.yarn[mask] = k
-        self.yarn_origin[mask] = self.span_id(stmt.span)
+        self.yarn[mask] = yarn if isinstance(yarn, int) else yarn[mask]
+        self.yarn_origin[mask] = self.span_id(span)
 
     def select(
         self, node: int | None, where, env: QueryEnv, within: np.ndarray | None

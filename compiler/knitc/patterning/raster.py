@@ -29,6 +29,8 @@ numpy version.
 
 from __future__ import annotations
 
+from collections.abc import Collection
+
 import io
 import math
 import os
@@ -69,18 +71,21 @@ MNEMONICS = INSTRUCTIONS
 CROSS_MNEMONICS = ("XR+", "XR-", "XL+", "XL-")
 
 
-def cell_problems(grid: ast.Grid, mode: str) -> list[tuple[str, ast.GridCell]]:
-    """("unknown", cell) for cells that are not instructions, and ("cross", cell) for the
-    first cross of a `stretch`ed grid (scaling would tear cable pairs apart). Shared by the
-    resolver (grids written in place) and the drawing pass (grids bound by `let`), which
-    report them under their own codes."""
+def cell_problems(
+    grid: ast.Grid, mode: str, yarns: Collection[str] = ()
+) -> list[tuple[str, ast.GridCell]]:
+    """("unknown", cell) for cells that are neither instructions nor `yarns` (a colour
+    chart's cells name the design's yarns), and ("cross", cell) for the first cross of a
+    `stretch`ed grid (scaling would tear cable pairs apart). Shared by the resolver (grids
+    written in place) and the drawing pass (grids bound by `let`), which report them under
+    their own codes."""
     out: list[tuple[str, ast.GridCell]] = []
     crossed = False
     for row in grid.rows:
         for cell in row:
             if cell.text == ".":
                 continue
-            if cell.text not in MNEMONICS:
+            if cell.text not in MNEMONICS and cell.text not in yarns:
                 out.append(("unknown", cell))
             elif mode == "stretch" and cell.text in CROSS_MNEMONICS and not crossed:
                 crossed = True
