@@ -29,12 +29,11 @@ numpy version.
 
 from __future__ import annotations
 
-from collections.abc import Collection
-
 import io
 import math
 import os
 import warnings
+from collections.abc import Collection
 from dataclasses import dataclass
 
 import numpy as np
