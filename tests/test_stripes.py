@@ -63,6 +63,8 @@ def striped(draw, fair_isle: bool = False) -> str:
             if fair_isle and w1 <= w0 and draw(st.booleans()):
                 k, r = draw(st.integers(2, 5)), draw(st.integers(0, 4))
                 where += f" and filter(wale % {k} == {r % k})"
+                if kind == "tube" and draw(st.booleans()):  # a band on one face only
+                    where += f" and side({draw(st.sampled_from(['front', 'back']))})"
             lines.append(f"  knit {yarn} where {where}")
         c += run
     lines.append("}")
@@ -409,3 +411,36 @@ def test_a_colour_chart_gives_each_cell_its_yarn():
     first = g.course_ids(6)
     assert [names[s] for s in first[:4]] == ["navy", "main", "main", "red"]  # the last row
     assert {names[s] for s in g.course_ids(5)} == {"main"}
+
+
+def test_a_colour_image_knits_each_pixel_with_the_nearest_yarn(tmp_path):
+    """`stretch img(...)`: each pixel's yarn is the one whose colour is nearest (main
+    white); on one face of a tube, where a bed's part of a course is all another yarn."""
+    from PIL import Image
+
+    im = Image.new("RGBA", (8, 6), (250, 250, 250, 255))
+    for x in range(8):
+        im.putpixel((x, 0), (200, 30, 30, 255))  # the top row: red
+        im.putpixel((x, 5), (20, 20, 120, 255))  # the bottom row: navy
+    im.putpixel((3, 5), (0, 0, 0, 0))  # transparent: the stitch keeps its yarn
+    im.save(tmp_path / "motif.png")
+    text = """
+yarn red { carrier: 5, colour: "#c0392b" }
+yarn navy { carrier: 6, colour: "#000080" }
+tube t { length: 20, width: 8 }
+pattern t {
+  stretch img("motif.png") where courses(5:10) and side(front)
+}
+"""
+    path = tmp_path / "img.knit"
+    path.write_text(text)
+    r = compile_source(text, str(path), until="machine")
+    assert r.program is not None and not r.diagnostics.has_errors, r.diagnostics.render()
+    g = r.graph
+    assert g is not None and g.yarn is not None
+    names = g.yarn_names
+    front = lambda c: [names[y] for y in g.yarn[g.course_ids(c)][:8].tolist()]  # noqa: E731
+    assert front(10) == ["red"] * 8
+    assert front(5) == ["navy"] * 3 + ["main"] + ["navy"] * 4
+    assert set(front(7)) == {"main"}
+    assert_knits_as_designed([r], names=["img"])

@@ -811,7 +811,12 @@ tests/test_fast_routes.py holds the short cuts to (the same ops, op for op)."""
 def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int, int]) -> None:
     g = gen.g
     stitches = gen.t.stitch[chunk]
-    if gen.back_courses and g.yarn is not None and len(set(g.yarn[stitches].tolist())) > 1:
+    if (  # (a part of a fair isle course may hold only another yarn's stitches)
+        gen.back_courses
+        and g.yarn is not None
+        and stitches.size
+        and bool((g.yarn[stitches] != gen.course_yarn[g.course[stitches[0]]]).any())
+    ):
         _fair_isle_pass(gen, ctx, chunk)
         return
     incs = _increases(gen, chunk, primary)
@@ -906,7 +911,7 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
     dirs = gen.dirs[chunk]
     dirs = np.where(dirs == 0, 1, dirs)
     base = int(gen.course_yarn[g.course[stitches[0]]])
-    done = np.zeros(len(stitches), bool)  # knitted in this course already
+    done = np.zeros(len(stitches), bool)  # knitted in this part of the course already
     every = gen.opts.yarn_tuck_every
     for y in [base] + sorted(set(ys.tolist()) - {base}):
         sel = ys == y

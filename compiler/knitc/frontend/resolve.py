@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 from typing import cast
 
 from knitc.diagnostics import Diagnostics, Note
@@ -34,6 +35,10 @@ from knitc.lang.evaluate import (
 from knitc.source import SourceFile, Span
 
 # ---- the resolver -------------------------------------------------------------------------------
+
+
+_HEX_COLOUR = re.compile(r"#[0-9a-fA-F]{6}")
+"""A yarn's `colour`."""
 
 
 class _Resolver:
@@ -585,7 +590,19 @@ class _Resolver:
                 owner.setdefault(carrier, name)
             tuck = values.get("tuck_every", 0)
             assert isinstance(tuck, int)
-            out[name] = sk.Yarn(name, carrier, carry, decl.span if decl else None, tuck)
+            colour = str(values.get("colour", ""))
+            if colour and not _HEX_COLOUR.fullmatch(colour):
+                assert decl is not None
+                self.diags.error(
+                    "E313",
+                    f'yarn `{name}`: `colour` is written "#rrggbb", got "{colour}"',
+                    next(p.value.span for p in decl.props if p.name.name == "colour"),
+                    hint='six hexadecimal digits of red, green and blue, e.g. "#c0392b"',
+                )
+                colour = ""
+            out[name] = sk.Yarn(
+                name, carrier, carry, decl.span if decl else None, tuck, colour.lower()
+            )
         return out
 
     # -- interfaces, connections, starts

@@ -137,6 +137,12 @@ YARN_PROPS: dict[str, PropSpec] = {
         doc="in fair isle, a float of the yarn is caught by a tuck every this many needles "
         "(0: never)",
     ),
+    "colour": PropSpec(
+        "string",
+        "",
+        doc="the yarn's colour as \"#rrggbb\", which a colour image's pixels are matched to "
+        "(`main` without one is white)",
+    ),
 }
 
 ACTION_PROPS: dict[str, PropSpec] = {
@@ -268,6 +274,8 @@ class Yarn:
     carry_up: int
     span: Span | None = None
     tuck_every: int = 0
+    colour: str = ""
+    """"#rrggbb", or "" (none): what a colour image's pixels are matched to."""
 
 
 @dataclass
@@ -671,6 +679,7 @@ def to_json(skel: Skeleton) -> dict[str, Any]:
                         "carrier": y.carrier,
                         "carry_up": y.carry_up,
                         "tuck_every": y.tuck_every,
+                        **({"colour": y.colour} if y.colour else {}),
                     }
                     for y in skel.yarn_list
                 ]

@@ -45,6 +45,9 @@ from knitc.shaping.stitch_graph import INSTRUCTIONS
 def apply_grid(run, stmt: ast.GridStmt, node, env, within) -> None:
     """Write the grid of `stmt` on the stitches its query selects (`run` is the pattern
     pass's state: `run.instr`, `run.mark`, `run.coords`, `run.diags`, `run.warned`)."""
+    if _is_image(stmt.grid):
+        _apply_image(run, stmt, node, env, within)
+        return
     grid = _grid(run, stmt, env)
     if grid is None:
         return
@@ -72,6 +75,60 @@ def apply_grid(run, stmt: ast.GridStmt, node, env, within) -> None:
             hint="select more courses or wales, or draw a smaller chart",
             warn=True,
         )
+
+
+def _is_image(g: ast.Node) -> bool:
+    return isinstance(g, ast.Call) and isinstance(g.func, ast.Name) and g.func.id == "img"
+
+
+def _apply_image(run, stmt: ast.GridStmt, node, env, within) -> None:
+    """`draw`/`stretch`/`tile img("file.png")`: a colour image as a chart of yarns, each
+    pixel knitted with the yarn whose `colour` is nearest (`main` without a colour is
+    white; a mostly transparent pixel keeps its stitch's yarn)."""
+    call = stmt.grid
+    assert isinstance(call, ast.Call)
+    yarns = run.skel.yarn_list
+    colours = [(k, y.colour or ("#ffffff" if k == 0 else "")) for k, y in enumerate(yarns)]
+    colours = [(k, c) for k, c in colours if c]
+    if len(colours) < 2:
+        _once(
+            run,
+            "E718",
+            "a colour image is matched to the yarns' colours, and fewer than two yarns have one",
+            call.span,
+            hint='give the yarns colours, e.g. `yarn red { carrier: 5, colour: "#c0392b" }` '
+            "(`main` without one is white)",
+        )
+        return
+    from knitc.patterning.query import image_path
+
+    args = [a for a in call.args if not isinstance(a, ast.KwArg)]
+    if len(args) != 1 or call.args != tuple(args) or not isinstance(args[0], ast.String):
+        _once(
+            run,
+            "E703",
+            "a colour image in a drawn layer takes one argument, its file in quotes",
+            call.span,
+            hint='e.g. `draw img("motif.png")`; channels and thresholds are for `where img(...)`',
+        )
+        return
+    try:
+        rgba = raster.image_rgba(image_path(args[0]))
+    except raster.ImageProblem as err:
+        _once(
+            run,
+            err.code,
+            str(err),
+            args[0].span,
+            hint=err.hint or "image paths are relative to the file that names them",
+        )
+        return
+    values = raster.nearest_colours(rgba, colours)
+    fr = evaluate_frame(run.g, node, stmt.where, env, run.diags, c=run.coords, within=within)
+    if fr is None:
+        return
+    placed = raster.place(values, fr, stmt.mode)
+    run.set_yarn(placed >= 0, placed, stmt.span)
 
 
 def _once(run, code: str, message: str, span, hint: str | None = None, warn: bool = False) -> None:

@@ -581,11 +581,8 @@ class _Eval:
                     f"an image threshold is between 0 and 1, got {threshold:g}",
                     a["threshold"].span,
                 )
-        path = Path(fa.value)
-        if not path.is_absolute() and fa.span is not None:
-            path = Path(fa.span.file).parent / path
         try:
-            values = raster.image_channel(str(path), channel)
+            values = raster.image_channel(image_path(fa), channel)
         except raster.ImageProblem as err:
             raise QueryError(
                 err.code,
@@ -975,3 +972,12 @@ def evaluate_frame(
         diags.error(err.code, err.message, err.span, hint=err.hint)
         return None
     return dataclasses.replace(fr, mask=fr.mask & ev.scope)
+
+
+def image_path(fa: ast.String) -> str:
+    """An image's file name as written (`img("motif.png")`), relative to the file that
+    names it."""
+    path = Path(fa.value)
+    if not path.is_absolute() and fa.span is not None:
+        path = Path(fa.span.file).parent / path
+    return str(path)

@@ -153,7 +153,19 @@ so only these plain raster formats are parsed."""
 
 
 def image_channel(path: str, channel: str) -> np.ndarray:
-    """The channel of the image at `path` as floats in [0, 1], top row first.
+    """The channel of the image at `path` as floats in [0, 1], top row first (`image_rgba`
+    says what is read and refused)."""
+    rgba = image_rgba(path)
+    if channel in "rgba":
+        return rgba[:, :, "rgba".index(channel)]
+    alpha = rgba[:, :, 3]
+    over_white = rgba[:, :, :3] * alpha[:, :, None] + (1.0 - alpha[:, :, None])
+    lum = over_white @ np.array([0.299, 0.587, 0.114])
+    return lum if channel == "l" else 1.0 - lum
+
+
+def image_rgba(path: str) -> np.ndarray:
+    """The image at `path` as (rows, columns, 4) floats in [0, 1], top row first.
 
     During a compilation the path must lie below its folders (`access.ReadRoots`); only a
     regular file of at most `access.MAX_IMAGE_BYTES` is read (a FIFO never blocks, a device
@@ -184,12 +196,18 @@ def image_channel(path: str, channel: str) -> np.ndarray:
         ) from err
     except (OSError, ValueError, EOFError, SyntaxError) as err:  # Pillow's decoders raise these
         raise ImageProblem(f"cannot read `{path}`: {err}") from err
-    if channel in "rgba":
-        return rgba[:, :, "rgba".index(channel)]
-    alpha = rgba[:, :, 3]
-    over_white = rgba[:, :, :3] * alpha[:, :, None] + (1.0 - alpha[:, :, None])
-    lum = over_white @ np.array([0.299, 0.587, 0.114])
-    return lum if channel == "l" else 1.0 - lum
+    return rgba
+
+
+def nearest_colours(rgba: np.ndarray, colours: list[tuple[int, str]]) -> np.ndarray:
+    """Per pixel, the first item of the `colours` pair ("#rrggbb") nearest to it in RGB
+    (-1 where the pixel is mostly transparent): a colour image as a chart of yarns."""
+    table = np.array(
+        [[int(c[i : i + 2], 16) / 255.0 for i in (1, 3, 5)] for _, c in colours], np.float64
+    )
+    d = ((rgba[:, :, None, :3] - table[None, None, :, :]) ** 2).sum(axis=3)
+    ids = np.array([k for k, _ in colours], np.int64)[np.argmin(d, axis=2)]
+    return np.where(rgba[:, :, 3] >= 0.5, ids, OFF).astype(np.int64)
 
 
 # ---- noise ---------------------------------------------------------------------------------
