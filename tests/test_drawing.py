@@ -311,7 +311,7 @@ def _diags(src, path):
         ('  let g = """\n K XR+\n """\n  stretch g', "E315", "XR+"),
         ('  let g = """\n K P\n P\n """\n  draw g', "E716", "P\n"),
         ("  let g = wales(0)\n  tile g", "E710", "g\n"),
-        ('  draw img("m.png")', "E710", "img"),
+        ('  draw img("m.png")', "E718", "img"),
         ("  set P where tile(wales(0))", "E710", "wales(0))"),
         ('  set P where img("nope.png")', "E713", '"nope.png"'),
         ('  set P where img("t.knit")', "E713", '"t.knit"'),

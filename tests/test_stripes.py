@@ -444,3 +444,23 @@ pattern t {
     assert front(5) == ["navy"] * 3 + ["main"] + ["navy"] * 4
     assert set(front(7)) == {"main"}
     assert_knits_as_designed([r], names=["img"])
+
+
+def test_a_yarn_resting_at_the_side_is_caught_into_the_edge_every_few_courses():
+    """`main` rests 8 courses in tube-three while red and blue knit: after 4 it tucks on
+    the edge stitch beside it and goes back out (a miss), and again after 4 more; a yarn
+    resting fewer courses is not caught."""
+    from knitc.codegen.generate import CATCH_RESTING_EVERY
+
+    r = _compiled("tube-three")
+    assert r.program is not None and r.graph is not None
+    ops = r.program.ops
+    catches = [i for i, op in enumerate(ops) if op.phase == "float_catch" and op.kind == "tuck"]
+    by_carrier: dict[int, int] = {}
+    for i in catches:
+        (c,) = ops[i].carriers
+        by_carrier[c] = by_carrier.get(c, 0) + 1
+        after = ops[i + 1]
+        assert after.kind == "miss" and after.carriers == (c,) and after.dir == -ops[i].dir
+    assert by_carrier.get(3, 0) == 8 // CATCH_RESTING_EVERY  # main, 8 courses of rest
+    assert 5 not in by_carrier  # red rests 2 courses between its stripes

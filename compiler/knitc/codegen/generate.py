@@ -203,6 +203,8 @@ class _Gen:
     their carrier."""
     strand_yarn: dict[int, int] = field(default_factory=dict)
     """A strand of the trace (a yarn in action) -> the design's yarn it is."""
+    caught: dict[int, int] = field(default_factory=dict)
+    """A resting carrier -> the course its rest began or it was last caught into the edge."""
 
     def __post_init__(self) -> None:
         self.knit_bed, self.knit_needle = sc.knit_positions(self.sched, self.g.n_stitches)
@@ -458,6 +460,8 @@ def _finish_course(
         left, last_dir = _cast_off(gen, ctx, chunk, ends) if ends else (-1, 0)
     if gen.back:
         _end_back_yarns(gen, int(g.course[ids[-1]]), int(ids[-1]))
+    if gen.course_yarn.size:
+        _catch_resting(gen, ids, carrier)
     with prog.code_pass("yarn_end"):
         if t.flags[chunk[-1]] & tr.END:
             tail_pos = cast.tail(ctx, left, last_dir) if left >= 0 else None
@@ -949,6 +953,53 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
         gen.bed.set_rack(0)
 
 
+CATCH_RESTING_EVERY = 4
+"""A yarn resting at the side while others knit stripes is caught into the edge after
+this many courses of rest, and again every this many: what is carried up the side is then
+a chain of short strands, not one as long as the rest (a shorter rest needs no catch, and
+each catch costs the machine a pass of its own)."""
+
+
+def _catch_resting(gen: _Gen, ids: np.ndarray, working: int) -> None:
+    """After a course of a colour design: every carrier resting at the side of it (a yarn
+    carried up between its stripes or bands) that has rested `CATCH_RESTING_EVERY` courses
+    since it knitted or was last caught tucks on the course's edge stitch beside it: the
+    knitter's twist of the resting yarn into the selvedge. The tuck rides on the stitch's
+    new loop and the course above knits it in."""
+    g, bed = gen.g, gen.bed
+    assert g.yarn is not None
+    course = int(g.course[ids[0]])
+    knitting = {working} | {gen.back[y] for y in set(g.yarn[ids].tolist()) if y in gen.back}
+    for c in [c for c in gen.caught if c in knitting]:
+        del gen.caught[c]
+    resting = ({*gen.carrier_of.values(), *gen.back.values()}) - knitting
+    used: set[Pos] = set()  # one catch per needle and course (a needle holds two loops)
+    for carrier in sorted(resting, key=lambda c: (gen.caught.get(c, course), c)):
+        since = gen.caught.setdefault(carrier, course)
+        at = bed.carrier_at.get(carrier)
+        if at is None or course - since < CATCH_RESTING_EVERY:
+            continue
+        edge = None
+        for s in (int(ids[0]), int(ids[-1])):
+            pos = bed.where.get(s)
+            if (
+                pos is not None
+                and pos not in used
+                and bed.loops.get(pos, 0) == 1
+                and abs(pos[1] - at) <= 1
+                and g.wale_next[s, 0] >= 0
+            ):
+                edge = (s, pos)
+                break
+        if edge is None:
+            continue
+        s, pos = edge
+        d = 1 if pos[1] > at else -1
+        gen.caught[carrier] = course
+        used.add(pos)
+        _catch(gen, carrier, s, d, s, back_out=True)
+
+
 def _catches(
     gen: _Gen, stitches: np.ndarray, sel: np.ndarray, done: np.ndarray, every: int
 ) -> dict[int, list[int]]:
@@ -980,9 +1031,12 @@ def _catches(
     return out
 
 
-def _catch(gen: _Gen, carrier: int, s: int, d: int, first: int) -> None:
+def _catch(gen: _Gen, carrier: int, s: int, d: int, first: int, back_out: bool = False) -> None:
     """A fair isle yarn's float caught on stitch s's needle: a tuck on its new loop, in the
-    pass's direction, at the stitch's own number, pointing at the `knit YARN` statement."""
+    pass's direction, at the stitch's own number, pointing at the `knit YARN` statement.
+    `back_out`: a resting yarn's catch, whose carrier then goes back past the needle to
+    the side it rests on (left inside the fabric, it would be kicked out of the way of
+    every pass after)."""
     g = gen.g
     origin = -1 if g.yarn_origin is None else int(g.yarn_origin[first])
     span = g.spans[origin] if origin >= 0 else gen.bed.span(s)
@@ -991,6 +1045,8 @@ def _catch(gen: _Gen, carrier: int, s: int, d: int, first: int) -> None:
     number = gen.opts.numbers.knit_half_gauge if half else gen.opts.numbers.knit
     with gen.bed.prog.code_pass("float_catch"):
         cast.emit(ctx, "tuck", d or 1, gen.positions[s], -1, number)
+        if back_out:
+            cast.emit(ctx, "miss", -(d or 1), gen.positions[s], -1)
 
 
 def _yarn_spans(gen: _Gen, ids: list[int]) -> dict[int, Span | None]:
