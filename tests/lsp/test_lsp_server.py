@@ -118,11 +118,16 @@ async def test_a_huge_design_stays_responsive(session: Session):
     assert d.code == "E313"
 
 
-BIG = "tube big {\n  length: 300\n  width: 245\n}\npattern big {\n  set P where wales(0:2:end)\n}\n"
-"""147,000 stitches and a pattern layer: shaped while typing (just under
-`analysis.FAST_STITCHES`), so its front end keeps the compiler thread busy for a while
-(several times the test's wait: a plain tube of 130,000 shaped too fast once shaping
-skipped the query coordinates of a design without patterns)."""
+BIG = (
+    "tube big {\n  length: 300\n  width: 245\n}\npattern big {\n"
+    + "".join(f"  set P where noise({2 + k}, threshold = 0.5, seed = {k})\n" for k in range(12))
+    + "}\n"
+)
+"""147,000 stitches and twelve noise layers: shaped while typing (just under
+`analysis.FAST_STITCHES`), so its front end keeps the compiler thread busy for about half a
+second, ten times the test's wait even on a loaded machine (one `set` statement took
+0.08 s once shaping got faster, and the hover was sometimes answered before its
+cancellation arrived)."""
 
 
 async def test_a_cancelled_request_is_answered_as_cancelled(session: Session):
