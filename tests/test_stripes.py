@@ -464,3 +464,10 @@ def test_a_yarn_resting_at_the_side_is_caught_into_the_edge_every_few_courses():
         assert after.kind == "miss" and after.carriers == (c,) and after.dir == -ops[i].dir
     assert by_carrier.get(3, 0) == 8 // CATCH_RESTING_EVERY  # main, 8 courses of rest
     assert 5 not in by_carrier  # red rests 2 courses between its stripes
+
+
+def test_the_tracers_default_carry_is_the_yarn_propertys():
+    from knitc.frontend.skeleton import YARN_PROPS
+    from knitc.scheduling.tracing import DEFAULT_CARRY_UP
+
+    assert DEFAULT_CARRY_UP == YARN_PROPS["carry_up"].default

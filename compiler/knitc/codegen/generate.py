@@ -30,6 +30,7 @@ is the stitch's declaration.
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -1081,9 +1082,14 @@ def _end_back_yarns(gen: _Gen, course: int, stitch: int) -> None:
     same node within its `carry_up` courses (it would rest too long, or elsewhere)."""
     g, opts = gen.g, gen.opts
     for yarn, carrier in list(gen.back.items()):
-        later = [c for c in gen.back_courses.get(yarn, ()) if c > course]
-        nxt = later[0] if later else None
-        carry = opts.yarn_carry_up[yarn] if yarn < len(opts.yarn_carry_up) else 8
+        courses = gen.back_courses.get(yarn, [])
+        k = bisect_right(courses, course)  # (sorted: the next one in log time, per course)
+        nxt = courses[k] if k < len(courses) else None
+        carry = (
+            opts.yarn_carry_up[yarn]
+            if yarn < len(opts.yarn_carry_up)
+            else sk.YARN_PROPS["carry_up"].default
+        )
         if (
             nxt is not None
             and g.course_node[nxt] == g.course_node[course]

@@ -136,9 +136,14 @@ def _rested(g: StitchGraph, design: np.ndarray, ca: int, c: int, want: int) -> b
     return any(design[k] != want and g.course_node[k] in nodes for k in range(ca + 1, c))
 
 
+DEFAULT_CARRY_UP = 8
+"""`carry_up` for a yarn the caller gave none for (the `yarn` property's default,
+`skeleton.YARN_PROPS`, which the driver always passes)."""
+
+
 def _at(values: Sequence[int], i: int) -> int:
     """values[i], or the default carry when the caller gave none for yarn i."""
-    return values[i] if i < len(values) else 8
+    return values[i] if i < len(values) else DEFAULT_CARRY_UP
 
 
 def trace_rules(
