@@ -22,6 +22,8 @@ the loops that stand for its designed wale predecessors. The exceptions, each na
   so that stitch's child also pulls the chain's last loop;
 - **float catch**: a fair isle yarn's tuck on a needle whose stitch it floats behind
   (`yarn { tuck_every }`) is knitted in by the stitch above, with that stitch's loop;
+- **closed backing**: a jacquard backing's last loops are moved onto the front needles and
+  knitted in by the stitches above (or the bind-off) in the same way;
 - **miss** (M, or an action that misses) forms no loop: the loops below stand for it;
   **tuck** (T, or an action's tuck) adds a loop that the next knit pulls through together
   with the loops below (the next stitch's own check holds it to that); a **split action**
@@ -46,7 +48,9 @@ Checks, each a `Mismatch` kind that names the stitch, its node and its course:
   a two-sided interface (a one-sided seam), or with a wale the fabric has no edge for;
 - ``pieces``: the fabric falls into another number of pieces than the design has garments;
 - ``yarn``: a stitch's loop is on another carrier than its design yarn's (stripes), or
-  two of the design's yarns share a carrier.
+  two of the design's yarns share a carrier;
+- ``backing``: a jacquard stitch with no backing loop behind it, or a backing loop pulled
+  through the front's loops or left with nothing through it (`_backing`).
 """
 
 from __future__ import annotations
@@ -61,7 +65,7 @@ from knitc.codegen.machine import MachineProgram
 from knitc.driver import Result
 from knitc.patterning.instructions import CROSSES, MOVES, cables, neighbour, right_left
 from knitc.scheduling import schedule as sc
-from knitc.shaping.stitch_graph import INSTRUCTIONS, StitchGraph
+from knitc.shaping.stitch_graph import INSTRUCTIONS, TWO_BED, StitchGraph
 
 P, T, M = (INSTRUCTIONS.index(x) for x in "PTM")
 REVERSED = {P} | {k for k, name in enumerate(INSTRUCTIONS) if name[0] == "B"}
@@ -139,6 +143,10 @@ class Expected:
     mismatches: list[Mismatch]
     home: np.ndarray
     """Per stitch, the bed its layout knits it on (0 front, 1 back)."""
+    backing: dict[int, int] = field(default_factory=dict)
+    """A jacquard backing's loop -> the stitch it was knitted behind."""
+    needle: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    """Per stitch, the needle its layout knits it on."""
 
 
 def loops_by_op(prog: MachineProgram, fab: Fabric) -> dict[int, list[int]]:
@@ -173,6 +181,7 @@ def expect(result: Result, fab: Fabric) -> Expected:
     cast_on: set[int] = set()
     cast_off: set[int] = set()
     caught: set[int] = set()  # a fair isle yarn's tucks on its float (`float_catch`)
+    backing: dict[int, int] = {}  # a jacquard backing's loops -> the stitch they are behind
     for k, op in enumerate(prog.ops):
         if op.kind == "miss" and op.phase == "action" and op.stitch >= 0:
             missed.add(op.stitch)
@@ -187,12 +196,14 @@ def expect(result: Result, fab: Fabric) -> Expected:
                 cast_off.update(by_op[k])
             elif op.phase == "float_catch":
                 caught.update(by_op[k])
+            elif op.phase == "backing":
+                backing.update(dict.fromkeys(by_op[k], op.stitch))
     n = g.n_stitches
     plain_ok = {d.span for d in result.diagnostics if d.code == "W603" and d.span is not None}
     assert result.schedule is not None
-    home = sc.knit_positions(result.schedule, n)[0]
+    home, needles = sc.knit_positions(result.schedule, n)
     stands: list[frozenset[int]] = [frozenset()] * n
-    out = Expected(loop, stands, set(), [], [], home)
+    out = Expected(loop, stands, set(), [], [], home, backing, needles)
     bad = out.mismatches
     sides = None
     for c in range(g.n_courses):
@@ -250,10 +261,13 @@ def expect(result: Result, fab: Fabric) -> Expected:
             if not got and _kickback(g, s, parents, loop, stands, fab):
                 out.kickbacks.add(s)
                 continue
-            if below <= got and (got - below <= cast_off or got - below <= caught):
+            if below <= got and (
+                got - below <= cast_off or got - below <= caught or got - below <= backing.keys()
+            ):
                 # a bind-off closed onto its live neighbour: the chain's last loop is knitted
                 # in with the neighbour's next stitch; a fair isle yarn's catch on the
-                # needle below is knitted in the same way
+                # needle below, or a jacquard backing closed onto its stitch, is knitted in
+                # the same way
                 out.realized += [(p, s) for p in parents]
                 _check_pull(g, fab, s, lp, bool(home[s] == 0), plain_ok, bad)
                 continue
@@ -399,7 +413,60 @@ def check_fabric(result: Result, fab: Fabric, *, dropped_ok: Iterable[int] = ())
     bad += _connections(result, ex)
     bad += _pieces(g, result.skeleton, ex)
     bad += _yarns(result, fab, ex)
+    bad += _backing(g, fab, ex)
     return bad
+
+
+def _backing(g: StitchGraph, fab: Fabric, ex: Expected) -> list[Mismatch]:
+    """A jacquard course's back layer: every stitch of a two-bed backing whose wale goes
+    straight on (one child on the same needle, its only parent) has a backing loop knitted
+    behind it; each backing loop is pulled through backing loops only (the back
+    layer is a fabric of its own, joined to the front by the yarns that cross) and has
+    something pulled through it (the next course's back knit, or the stitch it is closed
+    onto at the end of the region, or the bind-off)."""
+    out: list[Mismatch] = []
+    if g.backing is None:
+        return out
+    behind = set(ex.backing.values())
+
+    def straight(s: int) -> bool:
+        kids = [int(k) for k in g.wale_next[s] if k >= 0]
+        return (
+            len(kids) == 1
+            and int((g.wale_prev[kids[0]] >= 0).sum()) == 1
+            and ex.home[kids[0]] == ex.home[s]
+            and ex.needle[kids[0]] == ex.needle[s]
+        )
+
+    for c in np.unique(g.course[g.backing >= TWO_BED]).tolist():
+        ids = g.course_ids(c).tolist()
+        if not all(straight(s) for s in ids):
+            continue  # (the back layer closes a course before the fabric is shaped)
+        for s in ids:
+            if g.backing[s] < TWO_BED or s in behind:
+                continue
+            out.append(Mismatch("backing", s, f"{describe(g, s)} has no backing behind it"))
+    for x, s in sorted(ex.backing.items()):
+        stray = [p for p in fab.parents[x] if p not in ex.backing]
+        if stray:
+            out.append(
+                Mismatch(
+                    "backing",
+                    s,
+                    f"the backing loop {x} behind {describe(g, s)} was pulled through "
+                    f"loops {_names(g, fab, stray)} of the front",
+                )
+            )
+        if not fab.children[x]:
+            out.append(
+                Mismatch(
+                    "backing",
+                    s,
+                    f"the backing loop {x} behind {describe(g, s)} has nothing pulled "
+                    "through it and is not closed onto the front",
+                )
+            )
+    return out[:50]
 
 
 def _yarns(result: Result, fab: Fabric, ex: Expected) -> list[Mismatch]:

@@ -40,6 +40,7 @@ import numpy as np
 
 from knitc.codegen import actions
 from knitc.codegen import casting as cast
+from knitc.codegen.backing import back_knits
 from knitc.codegen.bed import BEDS, Bed, Pos, Unsupported
 from knitc.codegen.bed import needle as needle_of
 from knitc.codegen.machine import Machine, MachineProgram, racking_for
@@ -57,7 +58,7 @@ from knitc.patterning import actions as pattern_actions
 from knitc.patterning.instructions import CROSSES, MOVES, cables, neighbour, origin_site, right_left
 from knitc.scheduling import schedule as sc
 from knitc.scheduling import trace as tr
-from knitc.shaping.stitch_graph import COURSE_KINDS, INSTRUCTIONS, StitchGraph
+from knitc.shaping.stitch_graph import COURSE_KINDS, INSTRUCTIONS, TWO_BED, StitchGraph
 from knitc.source import Span
 
 SHORT_ROW = COURSE_KINDS.index("short_row")
@@ -206,6 +207,25 @@ class _Gen:
     """A strand of the trace (a yarn in action) -> the design's yarn it is."""
     caught: dict[int, int] = field(default_factory=dict)
     """A resting carrier -> the course its rest began or it was last caught into the edge."""
+    jacquard: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    """Per course: whether a stitch of it has a two-bed backing (`backing`)."""
+    region_yarns: dict[int, list[int]] = field(default_factory=dict)
+    """Node -> the yarns of its jacquard stitches, ascending: each knits every jacquard
+    course of the node, its back needles at least."""
+    region_course: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    """Per course: its index among its node's courses (a backing's `y`)."""
+    catch: list[Pos] = field(default_factory=list)
+    """The catching tucks of the yarn start being knitted (a cast-on's, or a jacquard yarn's
+    brought in for its pass, `_back_carrier`): dropped once a pass holds the yarn."""
+    backing_at: dict[Pos, int] = field(default_factory=dict)
+    """Back needles holding a jacquard backing's loop -> the stitch it is behind."""
+    backed: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    """Per stitch: a jacquard stitch of a course whose every wale goes straight on (one
+    child, the child's only parent, on the same needle). Only those get a backing loop:
+    the back layer is not shaped, so a course before one that decreases, increases or
+    moves (and the last one, before the bind-off) closes its loops onto the front a course
+    early: no needle holds more than two loops, and no backing loop is in the way of the
+    shaping's transfers (`_close_backing`)."""
 
     def __post_init__(self) -> None:
         self.knit_bed, self.knit_needle = sc.knit_positions(self.sched, self.g.n_stitches)
@@ -220,13 +240,44 @@ class _Gen:
         self.forks = set(np.nonzero((g.wale_next >= 0).sum(axis=1) == 2)[0].tolist())
         self.carrying = np.zeros(g.n_courses, bool)
         self.carrying[g.course[np.isin(g.instr, CARRIED)]] = True
-        if g.colourwork:
+        jacquard = g.backing >= TWO_BED if g.backing is not None else None
+        if g.colourwork or (jacquard is not None and jacquard.any()):
             assert g.yarn is not None
             self.course_yarn = g.course_yarn()  # (stripes too: a new strand's yarn)
             other = g.yarn != np.repeat(self.course_yarn, g.course_len)
+            back: dict[int, set[int]] = {}
             for c in np.unique(g.course[other]).tolist():
-                for y in sorted(set(g.yarn[g.course_ids(c)].tolist()) - {int(self.course_yarn[c])}):
-                    self.back_courses.setdefault(y, []).append(c)
+                for y in set(g.yarn[g.course_ids(c)].tolist()) - {int(self.course_yarn[c])}:
+                    back.setdefault(y, set()).add(c)
+            if jacquard is not None and jacquard.any():
+                self.jacquard = np.zeros(g.n_courses, bool)
+                self.jacquard[g.course[jacquard]] = True
+                for node in np.unique(g.node[jacquard]).tolist():
+                    ys = np.unique(g.yarn[jacquard & (g.node == node)]).tolist()
+                    self.region_yarns[node] = ys
+                first: dict[int, int] = {}
+                for c, node in enumerate(g.course_node.tolist()):
+                    first.setdefault(node, c)
+                self.region_course = np.arange(g.n_courses) - np.array(
+                    [first[n] for n in g.course_node.tolist()], np.int64
+                )
+                kids = g.wale_next
+                one = (kids >= 0).sum(axis=1) == 1
+                kid = kids.max(axis=1)
+                k = np.where(one, kid, 0)
+                straight = (
+                    one
+                    & ((g.wale_prev[k] >= 0).sum(axis=1) == 1)
+                    & (self.knit_bed[k] == self.knit_bed)
+                    & (self.knit_needle[k] == self.knit_needle)
+                )
+                bent = np.bincount(g.course[~straight], minlength=g.n_courses) > 0
+                self.backed = jacquard & ~bent[g.course]
+                for c in np.nonzero(self.jacquard)[0].tolist():
+                    for y in self.region_yarns[int(g.course_node[c])]:
+                        if y != int(self.course_yarn[c]):
+                            back.setdefault(y, set()).add(c)
+            self.back_courses = {y: sorted(cs) for y, cs in back.items()}
 
     def pos(self, s: int) -> Pos:
         return self.positions[s]
@@ -318,8 +369,7 @@ def _run(gen: _Gen) -> None:
     chunk = np.zeros(0, np.int64)
     primary: dict[int, int] = {}
     ctx: cast.Ctx | None
-    catch: list[Pos]
-    carrier, ctx, catch = -1, None, []
+    carrier, ctx = -1, None
     for sub in np.split(np.arange(t.n_visits), cuts):
         if sub.size == 0:
             continue
@@ -349,10 +399,10 @@ def _run(gen: _Gen) -> None:
                 gen.strand_yarn[yarn] = design
             carrier = gen.carrier_of[yarn]
             ctx = gen.ctx(carrier, int(ids[0]))
-            catch = []
+            gen.catch = []
             cids = t.stitch[chunk]
             if all(int(g.wale_prev[s, 0]) < 0 for s in cids):
-                catch = _cast_on(gen, ctx, chunk, new)
+                gen.catch = _cast_on(gen, ctx, chunk, new)
             elif new:
                 with prog.code_pass("yarn_start"):
                     prog.in_((carrier,), stitch=int(cids[0]), span=ctx.span)
@@ -364,11 +414,7 @@ def _run(gen: _Gen) -> None:
             _action_pass(gen, ctx, sub, primary)
         # the yarn has caught on the first part's stitches: the catching tucks go before the
         # next slice's shaping can need their needles
-        with prog.code_pass("yarn_start"):
-            for p in catch:
-                if gen.bed.loops.get(p, 0):
-                    gen.bed.drop(p, -1)
-        catch = []
+        _drop_catch(gen)
         if int(sub[-1]) + 1 == course_bounds[ci]:  # the course is done
             with prog.code_pass("action"):  # the moves and crosses finish the instructions
                 _carry(gen, chunk)
@@ -387,6 +433,16 @@ def _run(gen: _Gen) -> None:
     leftover = [pos for pos, n in gen.bed.loops.items() if n > 0]
     if leftover:
         raise Unsupported(f"{len(leftover)} loops would be left on the needles")
+
+
+def _drop_catch(gen: _Gen) -> None:
+    """Drop the catching tucks of a yarn start (`_Gen.catch`) once a pass holds the yarn."""
+    if gen.catch:
+        with gen.bed.prog.code_pass("yarn_start"):
+            for p in gen.catch:
+                if gen.bed.loops.get(p, 0):
+                    gen.bed.drop(p, -1)
+        gen.catch = []
 
 
 def _take_carrier(gen: _Gen, free: list[int], yarn: int) -> int:
@@ -457,6 +513,8 @@ def _finish_course(
     where = gen.bed.where
     ends = [s for s in ids[g.wale_next[ids, 0] < 0].tolist() if s in where]
     prog = gen.bed.prog
+    if gen.backing_at:
+        _close_backing(gen, ids)
     with prog.code_pass("cast_off"):
         left, last_dir = _cast_off(gen, ctx, chunk, ends) if ends else (-1, 0)
     if gen.back:
@@ -817,10 +875,13 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
     g = gen.g
     stitches = gen.t.stitch[chunk]
     if (  # (a part of a fair isle course may hold only another yarn's stitches)
-        gen.back_courses
+        gen.course_yarn.size
         and g.yarn is not None
         and stitches.size
-        and bool((g.yarn[stitches] != gen.course_yarn[g.course[stitches[0]]]).any())
+        and (
+            bool((g.yarn[stitches] != gen.course_yarn[g.course[stitches[0]]]).any())
+            or (gen.jacquard.size > 0 and bool(gen.jacquard[g.course[stitches[0]]]))
+        )
     ):
         _fair_isle_pass(gen, ctx, chunk)
         return
@@ -904,7 +965,9 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
 def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
     """A part of a course of several yarns (fair isle; plain knits only, E711): each yarn
     in turn, the course's own first, knits its stitches in the course's direction and
-    floats behind the others (thesis ch. 6.9.5: one main step per yarn)."""
+    floats behind the others (thesis ch. 6.9.5: one main step per yarn). In a jacquard
+    course every yarn of the region makes its pass, and knits behind the stitches the back
+    needles its backing gives it (`codegen.backing`), where it would float."""
     g = gen.g
     assert g.yarn is not None
     stitches = gen.t.stitch[chunk]
@@ -915,43 +978,122 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
     empty = np.where(g.wale_prev[stitches, 0] < 0, numbers.cast_on, plain)
     dirs = gen.dirs[chunk]
     dirs = np.where(dirs == 0, 1, dirs)
-    base = int(gen.course_yarn[g.course[stitches[0]]])
+    course = int(g.course[stitches[0]])
+    base = int(gen.course_yarn[course])
+    yarns = set(ys.tolist())
+    backs: np.ndarray | None = None
+    region: list[int] = []
+    if gen.jacquard.size and gen.jacquard[course]:
+        assert g.backing is not None
+        region = gen.region_yarns[int(g.course_node[course])]
+        yarns |= set(region)
+        backs = back_knits(
+            np.where(gen.backed[stitches], g.backing[stitches], 0),
+            ys,
+            gen.knit_needle[stitches] // g.course_gauge[course],  # (columns, half gauge too)
+            np.full(len(stitches), int(gen.region_course[course])),
+            region,
+        )
+        if gen.bed.rack:
+            gen.bed.set_rack(0)
     done = np.zeros(len(stitches), bool)  # knitted in this part of the course already
     every = gen.opts.yarn_tuck_every
-    for y in [base] + sorted(set(ys.tolist()) - {base}):
+    for y in [base] + sorted(yarns - {base}):
         sel = ys == y
-        if not sel.any():
+        back = backs[region.index(y)] if backs is not None and y in region else None
+        if not sel.any() and (back is None or not back.any()):
             continue
         ids = stitches[sel].tolist()
-        carrier = ctx.carrier if y == base else _back_carrier(gen, y, ids[0])
+        first = ids[0] if ids or back is None else int(stitches[np.argmax(back)])
+        start = None
+        if back is not None and y != base:  # (where a new yarn comes in: the pass's edge)
+            start = cast.Entry(gen.positions[int(stitches[0])], int(dirs[0]), int(stitches[0]))
+        carrier = ctx.carrier if y == base else _back_carrier(gen, y, first, start)
+
         spans = None if y == base else _yarn_spans(gen, ids)
-        n = every[y] if y < len(every) else 0
+        n = every[y] if y < len(every) and back is None else 0
         cuts = _catches(gen, stitches, sel, done, n) if n > 0 else {}
-        at = np.nonzero(sel)[0]
-        start = 0
-        for j in range(len(at) + 1):  # runs of the yarn's knits, a catch between two
-            if j < len(at) and int(at[j]) not in cuts:
-                continue
-            part = at[start:j]
-            if part.size:
+        run: list[int] = []  # the yarn's front knits not knitted yet, in pass order
+
+        def flush(run: list[int] = run, carrier: int = carrier, spans=spans) -> None:
+            if run:
                 gen.bed.knit_run(
-                    stitches[part].tolist(),
-                    dirs[part].tolist(),
-                    [gen.positions[int(s)] for s in stitches[part]],
-                    plain[part].tolist(),
-                    empty[part].tolist(),
+                    stitches[run].tolist(),
+                    dirs[run].tolist(),
+                    [gen.positions[int(s)] for s in stitches[run]],
+                    plain[run].tolist(),
+                    empty[run].tolist(),
                     carrier,
                     spans,
                 )
-            if j < len(at):
-                for t in cuts[int(at[j])]:
-                    _catch(gen, carrier, int(stitches[t]), int(dirs[t]), int(ids[0]))
-            start = j
+                run.clear()
+
+        for t in np.nonzero(sel if back is None else sel | back)[0].tolist():
+            if t in cuts:  # its float's catches before the yarn's next knit
+                flush()
+                for c in cuts[t]:
+                    _catch(gen, carrier, int(stitches[c]), int(dirs[c]), int(ids[0]))
+            if sel[t]:
+                run.append(t)
+            if back is not None and back[t]:
+                flush()
+                _back_knit(gen, carrier, int(stitches[t]), int(dirs[t]), int(plain[t]))
+        flush()
+        _drop_catch(gen)  # its pass holds the new yarn now (or the course's, on a cast-on)
         done |= sel
         if y == base:  # (its lead-out in its own pass, before the other yarns')
             _lead_out(gen, ctx, chunk)
     if gen.bed.rack:
         gen.bed.set_rack(0)
+
+
+def _back_knit(gen: _Gen, carrier: int, s: int, d: int, number: int) -> None:
+    """A jacquard yarn's knit on the needle behind stitch s (a tuck on its first course,
+    the needle being empty): the backing's loop, which the next course's back knit there
+    knits through, or `_close_backing` puts onto the stitch's needle."""
+    bed = gen.bed
+    pos = gen.positions[s]
+    behind: Pos = ("b" if pos[0] == "f" else "f", pos[1])
+    if bed.at.get(behind):
+        raise Unsupported(
+            f"the jacquard backing behind stitch {s} needs needle {behind[0]}{behind[1]}, "
+            "which holds fabric",
+            hint="a jacquard backing knits on the needles behind a sheet: keep other "
+            "fabric off them (knit the sheet on its own, or use `backing float`)",
+        )
+    kind = "knit" if bed.loops.get(behind, 0) else "tuck"
+    origin = gen.g.backing_origin
+    k = -1 if origin is None else int(origin[s])
+    span = gen.g.spans[k] if k >= 0 else bed.span(s)  # (the `backing` statement)
+    with bed.prog.code_pass("backing"):  # (the op names stitch s: the loop is behind it)
+        bed.prog.stitch_number(number)
+        bed.prog.needle_op(kind, d, needle_of(behind), (carrier,), s, span)
+    bed.loops[behind] = 1 if kind == "knit" else bed.loops.get(behind, 0) + 1
+    bed.carrier_at[carrier] = behind[1] + 0.5 * d
+    gen.backing_at[behind] = s
+
+
+def _close_backing(gen: _Gen, ids: np.ndarray) -> None:
+    """After a jacquard course: the backing's loops behind its stitches whose stitch above
+    gets none (`_Gen.backed`: the region ends, or the wale is shaped next) go onto their
+    stitch's needle, where the stitch above knits them in with its own loop: the back
+    layer is closed onto the front, not dropped."""
+    g, bed = gen.g, gen.bed
+    assert g.backing is not None
+    mine = set(ids.tolist())
+    for behind, s in list(gen.backing_at.items()):
+        if s not in mine:
+            continue
+        if gen.backed[s] and gen.backed[int(g.wale_next[s].max())]:
+            continue  # (the stitch above knits a backing loop through this one)
+        front = bed.where.get(s)
+        if front is None or front[1] != behind[1]:
+            raise Unsupported(f"the jacquard backing behind stitch {s} has no stitch to close onto")
+        if bed.rack:
+            bed.set_rack(0)
+        with bed.prog.code_pass("backing"):
+            bed.xfer(behind, front, s)
+        del gen.backing_at[behind]
 
 
 CATCH_RESTING_EVERY = 4
@@ -1062,9 +1204,14 @@ def _yarn_spans(gen: _Gen, ids: list[int]) -> dict[int, Span | None]:
     return out
 
 
-def _back_carrier(gen: _Gen, yarn: int, stitch: int) -> int:
+def _back_carrier(gen: _Gen, yarn: int, stitch: int, start: cast.Entry | None = None) -> int:
     """The carrier of the design's `yarn` for its stitches of a fair isle course: a strand
-    of it that is in (a stripe of it resting at the side), or its own, brought in now."""
+    of it that is in (a stripe of it resting at the side), or its own, brought in now.
+
+    With `start` (the first needle of a jacquard yarn's pass) it comes in on the inserting
+    hook, caught on free needles beyond that edge (`cast.yarn_start`), which the caller
+    drops once its pass holds it (`_Gen.catch`): its first op may be a backing tuck on an
+    empty needle, which would not hold a yarn brought in with `in`."""
     for strand, design in gen.strand_yarn.items():
         if design == yarn and strand in gen.carrier_of:
             return gen.carrier_of[strand]
@@ -1073,7 +1220,12 @@ def _back_carrier(gen: _Gen, yarn: int, stitch: int) -> int:
         carrier = gen.back[yarn] = _take_carrier(gen, gen.free, yarn)
         prog = gen.bed.prog
         with prog.code_pass("yarn_start"):
-            prog.in_((carrier,), stitch=stitch, span=gen.bed.span(stitch))
+            if start is None:
+                prog.in_((carrier,), stitch=stitch, span=gen.bed.span(stitch))
+            else:
+                busy = set(gen.course_needles)
+                busy |= {("b" if b == "f" else "f", x) for b, x in gen.course_needles}
+                gen.catch += cast.yarn_start(gen.ctx(carrier, stitch), start, busy, stitch)
     return carrier
 
 

@@ -216,9 +216,11 @@ CODE_PASSES = (
     "cast_off",
     "yarn_end",
     "float_catch",
+    "backing",
 )
 """The code pass (thesis ch. 6.8.1) an op belongs to ("float_catch": a fair isle yarn's
-tuck that binds its float, `yarn { tuck_every }`); '' when it was not made by code
+tuck that binds its float, `yarn { tuck_every }`; "backing": a jacquard yarn's knit on the
+other bed, and the transfer that closes the backing onto the front); '' when it was not made by code
 generation (read from a file, built by hand). Tools read it: the fabric check finds the loop
 that stands for a stitch (the one its action pass formed), the bench counts transfer passes
 by kind, and pictures colour the passes."""

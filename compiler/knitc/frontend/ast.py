@@ -358,12 +358,21 @@ class KnitStmt(Node):
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
+class BackingStmt(Node):
+    """`backing birdseye where q`: the selected stitches' courses of several yarns are
+    jacquard, their yarns knitting a backing on the other bed (`stitch_graph.BACKINGS`)."""
+
+    kind: Ident
+    where: Expr | None = None
+
+
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Let(Node):
     name: Ident
     value: Expr
 
 
-LayerStmt = SetStmt | UseStmt | ApplyStmt | GridStmt | KnitStmt | Let
+LayerStmt = SetStmt | UseStmt | ApplyStmt | GridStmt | KnitStmt | BackingStmt | Let
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)

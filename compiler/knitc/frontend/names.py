@@ -14,7 +14,7 @@ from knitc.lang.evaluate import (
     Value,
 )
 from knitc.patterning.raster import cell_problems
-from knitc.shaping.stitch_graph import INSTRUCTIONS
+from knitc.shaping.stitch_graph import BACKINGS, INSTRUCTIONS
 
 # ---- scopes for pattern, action and shaper bodies ----------------------------------------------
 
@@ -140,6 +140,20 @@ class NameChecker:
                         stmt.yarn.span,
                         hint=_suggest(name, sorted(self.yarns))
                         or f"declare it: `yarn {name} {{ carrier: 5 }}`",
+                    )
+            elif isinstance(stmt, ast.BackingStmt):
+                kind = stmt.kind.name
+                if kind not in BACKINGS[1:]:
+                    self.diags.error(
+                        "E229",
+                        f"unknown backing `{kind}`",
+                        stmt.kind.span,
+                        hint=(
+                            "did you mean `birdseye`? (the yarns alternate on the back)"
+                            if kind.startswith("altern")
+                            else _suggest(kind, list(BACKINGS[1:]))
+                        )
+                        or "a jacquard backing is one of " + ", ".join(BACKINGS[1:]),
                     )
             elif isinstance(stmt, ast.ApplyStmt):
                 self._check_apply(stmt, scope)

@@ -52,6 +52,7 @@ _KEYWORD_TYPES = frozenset(
         "KW_WHERE",
         "KW_LET",
         "KW_KNIT",
+        "KW_BACKING",
         "NODE_KIND",
         "GRID_MODE",
         "STEP",
@@ -319,6 +320,10 @@ class _ToAst(Transformer):
         _kw, name, where = ch
         return ast.KnitStmt(self._ident(name), where, span=self._span(meta))
 
+    def backing_stmt(self, meta, ch):
+        _kw, name, where = ch
+        return ast.BackingStmt(self._ident(name), where, span=self._span(meta))
+
     def let_stmt(self, meta, ch):
         _kw, name, value = ch
         return ast.Let(self._ident(name), value, span=self._span(meta))
@@ -543,7 +548,7 @@ def _word(terminal: str) -> str:
     return _TERMINAL_WORDS.get(terminal, f"`{terminal.lower()}`")
 
 
-_LAYER_START = {"KW_SET", "KW_USE", "KW_APPLY", "GRID_MODE", "KW_LET", "KW_KNIT"}
+_LAYER_START = {"KW_SET", "KW_USE", "KW_APPLY", "GRID_MODE", "KW_LET", "KW_KNIT", "KW_BACKING"}
 _TOP_START = {
     "KW_IMPORT",
     "KW_PARAM",
@@ -555,7 +560,7 @@ _TOP_START = {
     "KW_SHAPER",
     "KW_START",
 }
-_LAYER_WORDS = ("set", "use", "apply", "knit", "draw", "stretch", "tile", "let")
+_LAYER_WORDS = ("set", "use", "apply", "knit", "backing", "draw", "stretch", "tile", "let")
 
 
 def _describe_expected(expected: set[str]) -> str:

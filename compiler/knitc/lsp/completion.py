@@ -436,6 +436,7 @@ SPECIFIC_AFTER_SPACE = frozenset(
         "KW_SET",
         "KW_USE",
         "KW_KNIT",
+        "KW_BACKING",
         "KW_APPLY",
         "KW_WHERE",
         "KW_IMPORT",
@@ -484,7 +485,7 @@ def _specific(ctx: Context) -> bool:
         return True
     if ctx.last is None and ctx.accepts is None:
         m = _PREV_WORD.search(ctx.before)
-        words = ("set", "use", "knit", "apply", "where", "start", "->")
+        words = ("set", "use", "knit", "backing", "apply", "where", "start", "->")
         return m is not None and m.group(1) in words
     return bool(_CLOSING.search(ctx.before))
 
@@ -517,6 +518,8 @@ def _dispatch(ctx: Context, block: Block, names: Names, snippets: bool) -> Itera
         yield from _importable(ctx, names, "action")
     elif last == "KW_KNIT":
         yield from _yarns(names)
+    elif last == "KW_BACKING":
+        yield from _backings()
     elif last == "KW_APPLY":
         yield from _importable(ctx, names, "pattern")
     elif last in ("KW_START", "__ANON_0"):
@@ -584,6 +587,8 @@ def _fallback(ctx: Context, block: Block, names: Names, snippets: bool) -> Itera
         yield from _importable(ctx, names, "action")
     elif prev == "knit" and block.kind == "layer":
         yield from _yarns(names)
+    elif prev == "backing" and block.kind == "layer":
+        yield from _backings()
     elif prev == "apply":
         yield from _importable(ctx, names, "pattern")
     elif prev == "where" and block.kind == "layer":
@@ -685,11 +690,28 @@ def _steps(snippets: bool) -> Iterator[Item]:
         )
 
 
+BACKING_DOCS = {
+    "float": "the yarns float behind the stitches they do not show (fair isle)",
+    "tubular": "the yarns that do not show knit the back: its negative, for two yarns",
+    "birdseye": "the yarns take the back needles in turn, a checkerboard (the thesis' alternate)",
+    "pique": "the front yarn on every other back needle, the others between",
+    "horizontal": "every yarn knits every back needle: stripes on the back",
+    "vertical": "each back wale in one yarn: stripes up the back",
+}
+"""What each jacquard backing (`stitch_graph.BACKINGS`) does, for completion and hover."""
+
+
+def _backings() -> Iterator[Item]:
+    for word, doc in BACKING_DOCS.items():
+        yield Item(word, Kind.EnumMember, word, detail="jacquard backing", doc=doc)
+
+
 def _layer_keywords() -> Iterator[Item]:
     for word, doc in (
         ("set", "write an instruction: `set P where Q`"),
         ("use", "use a stitch action: `use A where Q`"),
         ("knit", "knit with a yarn: `knit red where courses(0:4)`"),
+        ("backing", "jacquard: `backing birdseye where courses(10:40)`"),
         ("apply", "apply a pattern definition: `apply rib(2, 2) where Q`"),
         ("draw", 'draw a grid: `draw """…""" where Q`'),
         ("stretch", "a grid scaled onto the selection"),

@@ -135,6 +135,10 @@ KEYWORDS: dict[str, str] = {
     "knit": "`knit YARN where Q`: knit the selected stitches with a declared yarn (`knit "
     "main`: with the design's own again). A course is knitted with one yarn: stripes are "
     "whole courses.",
+    "backing": "`backing KIND where Q`: the selected stitches' courses are jacquard: each "
+    "yarn of the region knits, besides its own stitches, the back needles behind the others' "
+    "(`tubular`, `birdseye`, `pique`, `horizontal`, `vertical`; `float` floats them as fair "
+    "isle). Sheets only: a tube knits its other side there (E719).",
     "apply": "`apply PATTERN(args) where Q`: run a pattern definition on the selection "
     "(arguments by position, then by name, then the defaults).",
     "where": "`where Q`: the stitches the statement applies to, a query; without it, all "
@@ -174,6 +178,7 @@ _ITEM_KEYWORD: dict[type, str] = {
     ast.SetStmt: "set",
     ast.UseStmt: "use",
     ast.KnitStmt: "knit",
+    ast.BackingStmt: "backing",
     ast.ApplyStmt: "apply",
     ast.Let: "let",
     ast.If: "if",

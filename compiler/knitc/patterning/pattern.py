@@ -40,7 +40,13 @@ from knitc.patterning.query import (
     evaluate_query,
     relative,
 )
-from knitc.shaping.stitch_graph import COURSE_KINDS, INSTRUCTIONS, StitchGraph
+from knitc.shaping.stitch_graph import (
+    BACKINGS,
+    COURSE_KINDS,
+    INSTRUCTIONS,
+    TWO_BED,
+    StitchGraph,
+)
 from knitc.source import Span
 
 MAX_DEPTH = 32
@@ -70,11 +76,15 @@ def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> Sti
         # the statements of one `pattern X { ... }` block share its `let`s
         env = run.envs.setdefault(layer.origin, QueryEnv(params=dict(skel.params), lets={}))
         run.stmts((layer.stmt,), node, env, None, 0)
-    if run.yarn is None:
+    if run.yarn is None and run.backing is None:
         return dataclasses.replace(
             g, instr=run.instr, action=run.action, origin=run.origin, spans=run.spans
         )
+    if run.yarn is None:
+        run.yarn = np.zeros(g.n_stitches, np.int8)
+        run.yarn_origin = np.full(g.n_stitches, -1, np.int32)
     _check_fair_isle(run)
+    _check_backing(run)
     return dataclasses.replace(
         g,
         instr=run.instr,
@@ -84,6 +94,8 @@ def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> Sti
         yarn=run.yarn,
         yarn_names=names,
         yarn_origin=run.yarn_origin,
+        backing=run.backing,
+        backing_origin=run.backing_origin,
     )
 
 
@@ -92,13 +104,17 @@ def _check_fair_isle(run: _Run) -> None:
     its own stitches and floating behind the others: that is lowered for plain knit
     stitches of regular courses only. A mixed course with purls, tucks, moves, actions,
     increases or short rows is E711, at the `knit` statement that last changed a yarn in
-    it (jacquard and intarsia, which would knit those, are not lowered yet)."""
+    it. A jacquard course (`backing`) is knitted in the same way, with its backing on the
+    other bed, and has the same rule (intarsia, which would knit those, is not lowered
+    yet)."""
     g, yarn, where = run.g, run.yarn, run.yarn_origin
     assert yarn is not None and where is not None
     if g.n_stitches == 0:
         return
     first = np.repeat(yarn[g.course_start], g.course_len)
     mixed = np.unique(g.course[yarn != first])
+    if run.backing is not None:  # a jacquard course knits every yarn of its region
+        mixed = np.union1d(mixed, g.course[run.backing >= TWO_BED])
     if mixed.size == 0:
         return
     increase = np.zeros(g.n_stitches, bool)
@@ -120,6 +136,8 @@ def _check_fair_isle(run: _Run) -> None:
             why = "increases"
         if why:
             k = where[ids]
+            if not (k >= 0).any() and run.backing_origin is not None:
+                k = run.backing_origin[ids]  # a jacquard course of one yarn here
             by_stmt.setdefault(int(k[k >= 0][-1]), []).append((c, why))
     for k, bad in by_stmt.items():
         c, why = bad[0]
@@ -134,9 +152,34 @@ def _check_fair_isle(run: _Run) -> None:
             + f" and has {why}"
             + (more if len(bad) > 1 else ""),
             run.spans[k],
-            hint="a course of several yarns (fair isle) knits plain stitches only, each "
-            "yarn floating behind the others' stitches; keep its purls, moves, actions and "
-            "shaping in courses of one yarn",
+            hint="a course of several yarns (fair isle, jacquard) knits plain stitches "
+            "only, each yarn floating or knitting its backing behind the others' "
+            "stitches; keep its purls, moves, actions and shaping in courses of one yarn",
+        )
+
+
+def _check_backing(run: _Run) -> None:
+    """A jacquard backing knits on the needles facing the course's stitches, which only a
+    sheet leaves free: a two-bed backing on a tube's course is E719, at the `backing`
+    statement (a tube's colourwork floats: fair isle, or `backing float`). (A half-gauge
+    tube has free needles behind both sides, but its slices' alignments move its loops
+    across them, which a back layer would be in the way of.)"""
+    g, backing, where = run.g, run.backing, run.backing_origin
+    if backing is None or where is None or g.n_stitches == 0:
+        return
+    on_tube = (backing >= TWO_BED) & g.course_circular[g.course]
+    for k in np.unique(where[on_tube]).tolist():
+        sel = on_tube & (where == k)
+        c = int(g.course[np.argmax(sel)])
+        node = g.node_names[int(g.course_node[c])]
+        kind = BACKINGS[int(backing[np.argmax(sel)])]
+        run.diags.error(
+            "E719",
+            f"a `{kind}` backing knits on the needles behind the fabric, but `{node}` is a "
+            "tube: its other side is knitted there",
+            run.spans[k],
+            hint="jacquard is knitted on sheets (thesis ch. 6.9.5); a tube's colourwork "
+            "floats behind its stitches: fair isle, or `backing float`",
         )
 
 
@@ -170,6 +213,11 @@ class _Run:
     """The yarn of each stitch, once a `knit` statement has run (`StitchGraph.yarn`)."""
     yarn_origin: np.ndarray | None = None
     """The `spans` index of the `knit` statement that last set each stitch's yarn."""
+    backing: np.ndarray | None = None
+    """Each stitch's jacquard backing, once a `backing` statement has run
+    (`StitchGraph.backing`)."""
+    backing_origin: np.ndarray | None = None
+    """The `spans` index of the `backing` statement that last set each stitch's backing."""
     yarn_index: dict = dataclasses.field(default_factory=dict)
 
     @property
@@ -213,6 +261,8 @@ class _Run:
                 actions.attach(self, stmt, node, env, within)
             elif isinstance(stmt, ast.KnitStmt):
                 self.knit_with(stmt, node, env, within)
+            elif isinstance(stmt, ast.BackingStmt):
+                self.back_with(stmt, node, env, within)
             elif isinstance(stmt, ast.GridStmt):
                 drawing.apply_grid(self, stmt, node, env, within)
 
@@ -243,6 +293,19 @@ class _Run:
         if k is None:
             return  # the resolver reported it (E228)
         self.set_yarn(self.select(node, stmt.where, env, within), k, stmt.span)
+
+    def back_with(
+        self, stmt: ast.BackingStmt, node: int | None, env: QueryEnv, within: np.ndarray | None
+    ) -> None:
+        """`backing KIND where Q`: the selected stitches' courses are jacquard."""
+        if stmt.kind.name not in BACKINGS[1:]:
+            return  # the resolver reported it (E229)
+        mask = self.select(node, stmt.where, env, within)
+        if self.backing is None or self.backing_origin is None:
+            self.backing = np.zeros(self.g.n_stitches, np.int8)
+            self.backing_origin = np.full(self.g.n_stitches, -1, np.int32)
+        self.backing[mask] = BACKINGS.index(stmt.kind.name)
+        self.backing_origin[mask] = self.span_id(stmt.span)
 
     def set_yarn(self, mask: np.ndarray, yarn: int | np.ndarray, span: Span) -> None:
         """The stitches in `mask` take `yarn` (a yarn index, or one per stitch), written by

@@ -47,6 +47,15 @@ INSTRUCTIONS = (
 
 COURSE_KINDS = ("regular", "short_row", "continuity", "interface")
 
+BACKINGS = ("none", "float", "tubular", "birdseye", "pique", "horizontal", "vertical")
+"""How the yarns of a jacquard course knit behind the stitches they do not show on
+(`backing KIND where q`; thesis ch. 6.9.5, Fig. 6-44): `float` as fair isle, behind the
+front stitches; the others knit on the other bed, each back needle by the yarns the kind
+chooses (`codegen.backing`)."""
+
+TWO_BED = BACKINGS.index("tubular")
+"""Backings from this index on knit on the other bed (`float` floats behind, as fair isle)."""
+
 NONE = -1
 
 
@@ -92,6 +101,13 @@ class StitchGraph:
     yarn_origin: np.ndarray | None = None
     """int32 per stitch: index into `spans` of the `knit YARN` statement that gave the
     stitch its yarn (-1: none); a fair isle yarn's knits point at it."""
+
+    backing: np.ndarray | None = None
+    """int8 per stitch: its course's jacquard backing, an index into `BACKINGS` (0: none);
+    set by `backing KIND where ...` pattern statements. None when no statement sets one."""
+    backing_origin: np.ndarray | None = None
+    """int32 per stitch: index into `spans` of the `backing` statement that set its backing
+    (-1: none): the backing's ops point at it."""
 
     def __post_init__(self) -> None:
         if self.origin is None:
@@ -217,6 +233,17 @@ def verify(g: StitchGraph) -> list[str]:
         dup = (arr[:, 0] >= 0) & (arr[:, 0] == arr[:, 1])
         if np.any(dup):
             problems.append(f"stitch {int(ids[dup][0])} lists the same wale twice")
+    if (
+        g.yarn is not None
+        and g.yarn.size
+        and (int(g.yarn.min()) < 0 or int(g.yarn.max()) >= len(g.yarn_names))
+    ):
+        problems.append("a stitch's yarn is not one of the graph's yarns")
+    if g.backing is not None:
+        if g.backing.shape != (n,):
+            problems.append("the backing array is not one value per stitch")
+        elif n and (int(g.backing.min()) < 0 or int(g.backing.max()) >= len(BACKINGS)):
+            problems.append("a stitch's backing is not one of BACKINGS")
     return problems
 
 
@@ -262,6 +289,11 @@ def to_json(g: StitchGraph, *, stitches: bool = True) -> dict[str, Any]:
                 "span": g.spans[int(g.span[i])].to_json(),
                 **({"origin": g.spans[int(g.origin[i])].to_json()} if g.origin[i] >= 0 else {}),
                 **({"yarn": g.yarn_names[int(g.yarn[i])]} if g.yarn[i] else {}),
+                **(
+                    {"backing": BACKINGS[int(g.backing[i])]}
+                    if g.backing is not None and g.backing[i]
+                    else {}
+                ),
             }
             for i in range(g.n_stitches)
         ]

@@ -96,4 +96,6 @@ def _renumber(g: StitchGraph, order: np.ndarray, flipped: np.ndarray) -> StitchG
         origin=g.origin[order],
         yarn=g.yarn[order],
         yarn_origin=None if g.yarn_origin is None else g.yarn_origin[order],
+        backing=None if g.backing is None else g.backing[order],
+        backing_origin=None if g.backing_origin is None else g.backing_origin[order],
     )

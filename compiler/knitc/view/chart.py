@@ -21,6 +21,7 @@ program makes (`view.loops`): one chart per yarn, rows by wale depth.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -135,7 +136,7 @@ def _rows_cols(
     return row, col, rows, cols, np.where(two, 2, 1)
 
 
-def build(g: StitchGraph, *, rows_by_depth: bool = False) -> Chart:
+def build(g: StitchGraph, *, rows_by_depth: bool = False, colours: Sequence[str] = ()) -> Chart:
     """Pack the node charts into one canvas (shelves in node order, top to bottom) and
     place every stitch on it."""
     row, col, rows, cols, faces = _rows_cols(g, rows_by_depth)
@@ -175,7 +176,11 @@ def build(g: StitchGraph, *, rows_by_depth: bool = False) -> Chart:
     fills: tuple[str, ...] = ()
     if yarns is not None:
         code[srow, scol] += yarns.astype(code.dtype) * k
-        fills = tuple(figure.yarn_colour(name, i) for i, name in enumerate(g.yarn_names) if i > 0)
+        fills = tuple(
+            figure.yarn_colour(name, i, colours[i] if i < len(colours) else "")
+            for i, name in enumerate(g.yarn_names)
+            if i > 0
+        )
     pieces = [
         Piece(
             g.node_names[v], placed[v][0], placed[v][1], int(rows[v]), int(cols[v]), int(faces[v])
@@ -277,7 +282,9 @@ def render(input: ViewInput, fmt: str) -> bytes:
     from matplotlib.patches import Patch
 
     g, hz, loops = graph_of(input)
-    ch = build(g, rows_by_depth=loops)
+    skel = input.result.skeleton if input.result is not None and not loops else None
+    colours = [y.colour for y in skel.yarn_list] if skel is not None else []
+    ch = build(g, rows_by_depth=loops, colours=colours)
     img = paint(ch, hz)
     fig = figure.new_figure(ch.width_px / DPI, ch.height_px / DPI)
     W, H = ch.width_px, ch.height_px

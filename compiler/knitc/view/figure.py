@@ -103,12 +103,14 @@ YARN_PALETTE = ("#c0392b", "#2e86c1", "#d4ac0d", "#7d3c98", "#17a589", "#ca6f1e"
 """Colours of the design's other yarns whose names are not colours (`yarn_colour`)."""
 
 
-def yarn_colour(name: str, k: int) -> str:
+def yarn_colour(name: str, k: int, declared: str = "") -> str:
     """'#rrggbb' of the design's yarn `name`, its k-th (k > 0; `main` is drawn in the
-    instruction colours): a yarn named for a colour (`yarn red`, `yarn coral`) is drawn in
-    it, any other in the palette's k-th colour."""
+    instruction colours): its declared `colour` if it has one, else a yarn named for a
+    colour (`yarn red`, `yarn coral`) is drawn in it, any other in the palette's k-th."""
     from matplotlib.colors import is_color_like, to_hex
 
+    if declared:
+        return declared.lower()
     if name.isalpha() and is_color_like(name):
         return str(to_hex(name))
     return YARN_PALETTE[(k - 1) % len(YARN_PALETTE)]
