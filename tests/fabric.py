@@ -23,7 +23,8 @@ the loops that stand for its designed wale predecessors. The exceptions, each na
 - **float catch**: a fair isle yarn's tuck on a needle whose stitch it floats behind
   (`yarn { tuck_every }`) is knitted in by the stitch above, with that stitch's loop;
 - **closed backing**: a jacquard backing's last loops are moved onto the front needles and
-  knitted in by the stitches above (or the bind-off) in the same way;
+  knitted in by the stitches above (or the bind-off) in the same way, and so is an
+  intarsia yarn's tuck join on its neighbour region's needle;
 - **miss** (M, or an action that misses) forms no loop: the loops below stand for it;
   **tuck** (T, or an action's tuck) adds a loop that the next knit pulls through together
   with the loops below (the next stitch's own check holds it to that); a **split action**
@@ -50,7 +51,9 @@ Checks, each a `Mismatch` kind that names the stitch, its node and its course:
 - ``yarn``: a stitch's loop is on another carrier than its design yarn's (stripes), or
   two of the design's yarns share a carrier;
 - ``backing``: a jacquard stitch with no backing loop behind it, or a backing loop pulled
-  through the front's loops or left with nothing through it (`_backing`).
+  through the front's loops or left with nothing through it (`_backing`);
+- ``slit``: two neighbouring stitches of an intarsia course knitted by different yarns
+  with nothing linking the two (`_walls`).
 """
 
 from __future__ import annotations
@@ -65,7 +68,7 @@ from knitc.codegen.machine import MachineProgram
 from knitc.driver import Result
 from knitc.patterning.instructions import CROSSES, MOVES, cables, neighbour, right_left
 from knitc.scheduling import schedule as sc
-from knitc.shaping.stitch_graph import INSTRUCTIONS, TWO_BED, StitchGraph
+from knitc.shaping.stitch_graph import INSTRUCTIONS, INTARSIA, StitchGraph, two_bed
 
 P, T, M = (INSTRUCTIONS.index(x) for x in "PTM")
 REVERSED = {P} | {k for k, name in enumerate(INSTRUCTIONS) if name[0] == "B"}
@@ -414,7 +417,46 @@ def check_fabric(result: Result, fab: Fabric, *, dropped_ok: Iterable[int] = ())
     bad += _pieces(g, result.skeleton, ex)
     bad += _yarns(result, fab, ex)
     bad += _backing(g, fab, ex)
+    bad += _walls(g, fab, ex)
     return bad
+
+
+def _walls(g: StitchGraph, fab: Fabric, ex: Expected) -> list[Mismatch]:
+    """In an intarsia course, two neighbouring stitches of different yarns are knitted by
+    different yarns of the fabric: they must be linked, else the wall between their
+    regions is a slit. Linked: one of the two stitches' loops, or the loop above it, was
+    pulled through a loop of the other's yarn (the tuck join)."""
+    out: list[Mismatch] = []
+    if g.backing is None or g.yarn is None:
+        return out
+    intarsia = np.zeros(g.n_courses, bool)
+    intarsia[g.course[g.backing == INTARSIA]] = True
+
+    def pulled(s: int) -> set[int | None]:
+        """The fabric yarns of the loops stitch s's loop and its child's were pulled through."""
+        got: set[int | None] = set()
+        for t in (s, int(g.wale_next[s].max())):
+            if t >= 0 and t in ex.loop:
+                got |= {fab.yarn[p] for p in fab.parents[ex.loop[t]]}
+        return got
+
+    for c in np.nonzero(intarsia)[0].tolist():
+        for s in g.course_ids(c).tolist():
+            s2 = int(g.cnext[s])
+            if s2 < 0 or g.yarn[s] == g.yarn[s2] or s not in ex.loop or s2 not in ex.loop:
+                continue
+            a, b = fab.yarn[ex.loop[s]], fab.yarn[ex.loop[s2]]
+            if a == b or a in pulled(s2) or b in pulled(s):
+                continue
+            out.append(
+                Mismatch(
+                    "slit",
+                    s,
+                    f"{describe(g, s)} and its neighbour {s2} are of different yarns with "
+                    "nothing linking them: the wall between their regions is a slit",
+                )
+            )
+    return out[:50]
 
 
 def _backing(g: StitchGraph, fab: Fabric, ex: Expected) -> list[Mismatch]:
@@ -438,12 +480,13 @@ def _backing(g: StitchGraph, fab: Fabric, ex: Expected) -> list[Mismatch]:
             and ex.needle[kids[0]] == ex.needle[s]
         )
 
-    for c in np.unique(g.course[g.backing >= TWO_BED]).tolist():
+    jacquard = two_bed(g.backing)
+    for c in np.unique(g.course[jacquard]).tolist():
         ids = g.course_ids(c).tolist()
         if not all(straight(s) for s in ids):
             continue  # (the back layer closes a course before the fabric is shaped)
         for s in ids:
-            if g.backing[s] < TWO_BED or s in behind:
+            if not jacquard[s] or s in behind:
                 continue
             out.append(Mismatch("backing", s, f"{describe(g, s)} has no backing behind it"))
     for x, s in sorted(ex.backing.items()):
@@ -561,6 +604,8 @@ def _rings(g: StitchGraph, fab: Fabric, ex: Expected) -> list[Mismatch]:
             continue  # missed stitches (and their reports) make no ring of their own
         first = ids[0]
         assert g.yarn is not None
+        if g.backing is not None and bool((g.backing[ids] == INTARSIA).any()):
+            continue  # an intarsia round is a ring of regions, each its own yarn (`_walls`)
         design = g.yarn[ids].tolist()
         if len(set(design)) > 1:  # fair isle: each yarn's own stitches, in course order
             for y in sorted(set(design)):

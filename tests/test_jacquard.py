@@ -25,7 +25,7 @@ from knitc.backends.dat_format import decode, encode, rows
 from knitc.backends.dat_write import to_dat
 from knitc.codegen.backing import back_knits
 from knitc.driver import compile_source
-from knitc.shaping.stitch_graph import BACKINGS, TWO_BED
+from knitc.shaping.stitch_graph import BACKINGS, JACQUARD, two_bed
 
 # ---- the backing rule -------------------------------------------------------------------------
 
@@ -51,7 +51,7 @@ def test_every_back_needle_is_knitted_by_the_yarns_its_backing_says(case):
     n = len(yarns)
     per_needle = out.sum(axis=0)
     k = BACKINGS[int(kind[0])]
-    if kind[0] < TWO_BED:
+    if not two_bed(kind)[0]:
         assert not out.any()
         return
     expect = n if k == "horizontal" else 1
@@ -99,7 +99,7 @@ def _design(kind: str, yarns: int) -> str:
     )
 
 
-DESIGNS = {f"{kind}-{n}": _design(kind, n) for kind in BACKINGS[1:] for n in (2, 3)} | {
+DESIGNS = {f"{kind}-{n}": _design(kind, n) for kind in ("float", *JACQUARD) for n in (2, 3)} | {
     # the region runs to the bind-off, and starts at the cast-on
     "whole-sheet": TWO
     + "sheet s { length: 8, width: 9 }\n"
@@ -169,7 +169,7 @@ def test_the_back_layer_is_closed_onto_the_front_where_the_region_ends():
     last = max(i for i, op in enumerate(ops) if op.phase == "backing")
     backs_after = [op for op in ops[last + 1 :] if op.phase == "backing"]
     assert not backs_after
-    assert g is not None and g.backing is not None and (g.backing >= TWO_BED).sum() > 0
+    assert g is not None and g.backing is not None and two_bed(g.backing).sum() > 0
 
 
 def test_the_stitch_graph_dump_names_the_backing():
@@ -211,7 +211,7 @@ def jacquard(draw) -> str:
         lines.append(f"  knit {yarn} where courses({a}:{b}) and filter(wale % {k} == {r % k})")
     c = draw(st.integers(0, length - 1))
     d = draw(st.integers(c, length - 1))
-    kind = draw(st.sampled_from(BACKINGS[2:]))
+    kind = draw(st.sampled_from(JACQUARD))
     lines.append(f"  backing {kind} where courses({c}:{d})")
     lines.append("}")
     return "\n".join(lines) + "\n"

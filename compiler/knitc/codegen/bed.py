@@ -60,7 +60,7 @@ class Bed:
     """Current position of each live stitch's loop."""
     at: dict[Pos, set[int]] = field(default_factory=lambda: defaultdict(set))
     """The inverse of `where`: the stitches whose loops are on a needle."""
-    rack: int = 0
+    rack: float = 0
     carrier_at: dict[int, float] = field(default_factory=dict)
     """Where each carrier in use was left (needle position, between needles)."""
     _span_of: list | None = None
@@ -92,7 +92,7 @@ class Bed:
             got = self._per_stitch[name] = array.tolist()
         return got
 
-    def set_rack(self, r: int) -> None:
+    def set_rack(self, r: float) -> None:
         if r != self.rack:
             if abs(r) > self.max_rack:
                 raise Unsupported(

@@ -58,7 +58,8 @@ from knitc.patterning import actions as pattern_actions
 from knitc.patterning.instructions import CROSSES, MOVES, cables, neighbour, origin_site, right_left
 from knitc.scheduling import schedule as sc
 from knitc.scheduling import trace as tr
-from knitc.shaping.stitch_graph import COURSE_KINDS, INSTRUCTIONS, TWO_BED, StitchGraph
+from knitc.shaping.intarsia import regions
+from knitc.shaping.stitch_graph import COURSE_KINDS, INSTRUCTIONS, StitchGraph, two_bed
 from knitc.source import Span
 
 SHORT_ROW = COURSE_KINDS.index("short_row")
@@ -214,6 +215,14 @@ class _Gen:
     course of the node, its back needles at least."""
     region_course: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     """Per course: its index among its node's courses (a backing's `y`)."""
+    region: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    """Per stitch: its intarsia region (`shaping.intarsia.regions`), -1 elsewhere."""
+    region_last: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    """Per intarsia region: its last course, after which its carrier is taken out."""
+    region_carrier: dict[int, int] = field(default_factory=dict)
+    """Intarsia regions being knitted -> their carriers."""
+    round_parts: list[np.ndarray] = field(default_factory=list)
+    """The slices of an intarsia round seen so far: it is knitted once all are placed."""
     catch: list[Pos] = field(default_factory=list)
     """The catching tucks of the yarn start being knitted (a cast-on's, or a jacquard yarn's
     brought in for its pass, `_back_carrier`): dropped once a pass holds the yarn."""
@@ -240,12 +249,20 @@ class _Gen:
         self.forks = set(np.nonzero((g.wale_next >= 0).sum(axis=1) == 2)[0].tolist())
         self.carrying = np.zeros(g.n_courses, bool)
         self.carrying[g.course[np.isin(g.instr, CARRIED)]] = True
-        jacquard = g.backing >= TWO_BED if g.backing is not None else None
+        jacquard = two_bed(g.backing) if g.backing is not None else None
         if g.colourwork or (jacquard is not None and jacquard.any()):
             assert g.yarn is not None
             self.course_yarn = g.course_yarn()  # (stripes too: a new strand's yarn)
             other = g.yarn != np.repeat(self.course_yarn, g.course_len)
             back: dict[int, set[int]] = {}
+            intarsia = self.course_yarn == len(g.yarn_names)
+            if intarsia.any():  # (an intarsia course has no back yarns: `_intarsia_pass`)
+                other &= ~intarsia[g.course]
+                self.region = regions(g)
+                self.region_course = _node_courses(g)
+                mine = self.region >= 0
+                self.region_last = np.zeros(int(self.region.max()) + 1, np.int64)
+                np.maximum.at(self.region_last, self.region[mine], g.course[mine])
             for c in np.unique(g.course[other]).tolist():
                 for y in set(g.yarn[g.course_ids(c)].tolist()) - {int(self.course_yarn[c])}:
                     back.setdefault(y, set()).add(c)
@@ -255,12 +272,7 @@ class _Gen:
                 for node in np.unique(g.node[jacquard]).tolist():
                     ys = np.unique(g.yarn[jacquard & (g.node == node)]).tolist()
                     self.region_yarns[node] = ys
-                first: dict[int, int] = {}
-                for c, node in enumerate(g.course_node.tolist()):
-                    first.setdefault(node, c)
-                self.region_course = np.arange(g.n_courses) - np.array(
-                    [first[n] for n in g.course_node.tolist()], np.int64
-                )
+                self.region_course = _node_courses(g)
                 kids = g.wale_next
                 one = (kids >= 0).sum(axis=1) == 1
                 kid = kids.max(axis=1)
@@ -347,6 +359,14 @@ def generate(
     return prog
 
 
+def _node_courses(g: StitchGraph) -> np.ndarray:
+    """Per course: its index among its node's courses."""
+    first: dict[int, int] = {}
+    for c, node in enumerate(g.course_node.tolist()):
+        first.setdefault(node, c)
+    return np.arange(g.n_courses) - np.array([first[n] for n in g.course_node.tolist()], np.int64)
+
+
 def _node_span(gen: _Gen, node: int) -> Span | None:
     ids = np.nonzero(gen.g.node == node)[0]
     return gen.bed.span(int(ids[0])) if ids.size else None
@@ -393,6 +413,9 @@ def _run(gen: _Gen) -> None:
                 design = int(gen.course_yarn[g.course[ids[0]]]) if gen.course_yarn.size else 0
                 if design in gen.back:  # in already, for fair isle: the strand takes it
                     gen.carrier_of[yarn] = gen.back.pop(design)
+                    new = False
+                elif design == len(g.yarn_names):  # an intarsia band: its regions' carriers
+                    gen.carrier_of[yarn] = NO_CARRIER
                     new = False
                 else:
                     gen.carrier_of[yarn] = _take_carrier(gen, free, design)
@@ -519,10 +542,15 @@ def _finish_course(
         left, last_dir = _cast_off(gen, ctx, chunk, ends) if ends else (-1, 0)
     if gen.back:
         _end_back_yarns(gen, int(g.course[ids[-1]]), int(ids[-1]))
+    if gen.region_carrier:
+        _end_regions(gen, int(g.course[ids[-1]]))
     if gen.course_yarn.size:
         _catch_resting(gen, ids, carrier)
     with prog.code_pass("yarn_end"):
-        if t.flags[chunk[-1]] & tr.END:
+        if carrier == NO_CARRIER:  # (an intarsia band's: its regions' yarns have ended)
+            if t.flags[chunk[-1]] & tr.END:
+                del gen.carrier_of[int(t.yarn[chunk[-1]])]
+        elif t.flags[chunk[-1]] & tr.END:
             tail_pos = cast.tail(ctx, left, last_dir) if left >= 0 else None
             cast.yarn_end(ctx, tail_pos, left if left >= 0 else int(ids[-1]))
             del gen.carrier_of[int(t.yarn[chunk[-1]])]
@@ -874,6 +902,9 @@ tests/test_fast_routes.py holds the short cuts to (the same ops, op for op)."""
 def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int, int]) -> None:
     g = gen.g
     stitches = gen.t.stitch[chunk]
+    if gen.region.size and gen.region[stitches[0]] >= 0:
+        _intarsia_pass(gen, chunk)
+        return
     if (  # (a part of a fair isle course may hold only another yarn's stitches)
         gen.course_yarn.size
         and g.yarn is not None
@@ -994,8 +1025,9 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
             np.full(len(stitches), int(gen.region_course[course])),
             region,
         )
-        if gen.bed.rack:
-            gen.bed.set_rack(0)
+        # quarter pitch: a yarn knits a front needle and the back one behind it in one
+        # pass (all-needle knitting; a Shima row holds both in one column only so)
+        gen.bed.set_rack(QUARTER)
     done = np.zeros(len(stitches), bool)  # knitted in this part of the course already
     every = gen.opts.yarn_tuck_every
     for y in [base] + sorted(yarns - {base}):
@@ -1033,9 +1065,15 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
                 flush()
                 for c in cuts[t]:
                     _catch(gen, carrier, int(stitches[c]), int(dirs[c]), int(ids[0]))
+            # at quarter pitch a back needle sits a quarter needle right of its front one:
+            # the carriage meets the front one first going right, the back one going left
+            both = back is not None and bool(back[t])
+            if both and dirs[t] < 0:
+                flush()
+                _back_knit(gen, carrier, int(stitches[t]), int(dirs[t]), int(plain[t]))
             if sel[t]:
                 run.append(t)
-            if back is not None and back[t]:
+            if both and dirs[t] > 0:
                 flush()
                 _back_knit(gen, carrier, int(stitches[t]), int(dirs[t]), int(plain[t]))
         flush()
@@ -1045,6 +1083,90 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
             _lead_out(gen, ctx, chunk)
     if gen.bed.rack:
         gen.bed.set_rack(0)
+
+
+def _intarsia_pass(gen: _Gen, chunk: np.ndarray) -> None:
+    """A part of an intarsia course (thesis ch. 6.9.6): each run of one region's stitches
+    knitted by that region's carrier (brought in on its first course), in the course's
+    direction, so each region's carrier goes back and forth over its own stitches. Where a
+    run meets the next one, its yarn tucks on the next run's first needle before turning
+    (the intarsia tuck join): the next run's stitch knits that loop in, and the two yarns
+    are linked at every course, so the wall between the regions is not a slit. The join
+    comes from the side the course arrives from, so a wall's tucks alternate sides."""
+    g = gen.g
+    assert g.yarn is not None
+    course = int(g.course[gen.t.stitch[chunk[0]]])
+    wrap = False
+    if g.course_circular[course]:
+        # a round: every region turns at its walls, so the runs go around one way on the
+        # band's even courses and back the other way on its odd ones, starting at a wall.
+        # The round's slices (one per bed) are knitted together, after the last one's
+        # shaping, provided it left the loops below where the round knits them.
+        gen.round_parts.append(chunk)
+        chunk = np.concatenate(gen.round_parts)
+        if len(chunk) < int(g.course_len[course]):
+            return
+        gen.round_parts = []
+        for s in gen.t.stitch[chunk].tolist():
+            at = [gen.bed.where.get(int(p)) for p in g.wale_prev[s] if p >= 0]
+            if any(pos != gen.positions[s] for pos in at):
+                raise Unsupported(
+                    "the slices of an intarsia round moved its loops",
+                    hint="keep the intarsia band's courses unshaped on a tube",
+                )
+    stitches = gen.t.stitch[chunk]
+    reg = gen.region[stitches]
+    dirs = gen.dirs[chunk]
+    dirs = np.where(dirs == 0, 1, dirs)
+    if g.course_circular[course]:
+        walls = np.nonzero(reg != np.roll(reg, 1))[0]
+        order = np.arange(len(stitches))
+        if walls.size:
+            order = np.roll(order, -int(walls[0]))
+            wrap = True
+        if gen.region_course[course] % 2:
+            order = order[::-1]
+            dirs = -dirs
+        stitches, reg, dirs = stitches[order], reg[order], dirs[order]
+    numbers = gen.opts.numbers
+    halves = g.course_gauge[g.course[stitches]] == 2
+    plain = np.where(halves, numbers.knit_half_gauge, numbers.knit)
+    if gen.bed.rack:
+        gen.bed.set_rack(0)
+    runs = np.split(np.arange(len(stitches)), np.nonzero(np.diff(reg) != 0)[0] + 1)
+    for i, run in enumerate(runs):
+        r = int(reg[run[0]])
+        first = int(stitches[run[0]])
+        carrier = gen.region_carrier.get(r)
+        if carrier is None:  # the region's local yarn (R7), in over the loops below
+            carrier = gen.region_carrier[r] = _take_carrier(gen, gen.free, int(g.yarn[first]))
+            with gen.bed.prog.code_pass("yarn_start"):
+                gen.bed.prog.in_((carrier,), stitch=first, span=_yarn_spans(gen, [first])[first])
+        ids = stitches[run].tolist()
+        gen.bed.knit_run(
+            ids,
+            dirs[run].tolist(),
+            [gen.positions[s] for s in ids],
+            plain[run].tolist(),
+            plain[run].tolist(),
+            carrier,
+            _yarn_spans(gen, ids),
+        )
+        if i + 1 < len(runs) or wrap:  # the tuck join onto the next region's first needle
+            nxt = int(stitches[runs[(i + 1) % len(runs)][0]])
+            _catch(gen, carrier, nxt, int(dirs[run[-1]]), first)
+
+
+def _end_regions(gen: _Gen, course: int) -> None:
+    """After a course: take out the carriers of the intarsia regions it ends."""
+    for r, carrier in list(gen.region_carrier.items()):
+        if gen.region_last[r] != course:
+            continue
+        stitch = int(np.argmax((gen.region == r) & (gen.g.course == course)))
+        with gen.bed.prog.code_pass("yarn_end"):
+            cast.yarn_end(gen.ctx(carrier, stitch), None, stitch)
+        del gen.region_carrier[r]
+        gen.free.append(carrier)
 
 
 def _back_knit(gen: _Gen, carrier: int, s: int, d: int, number: int) -> None:
@@ -1096,6 +1218,12 @@ def _close_backing(gen: _Gen, ids: np.ndarray) -> None:
         del gen.backing_at[behind]
 
 
+QUARTER = 0.25
+"""The racking of a jacquard course's passes (`rack 0.25`, quarter pitch)."""
+
+NO_CARRIER = -1
+"""The carrier of an intarsia band's strand of the trace: none, its regions have theirs."""
+
 CATCH_RESTING_EVERY = 4
 """A yarn resting at the side while others knit stripes is caught into the edge after
 this many courses of rest, and again every this many: what is carried up the side is then
@@ -1115,7 +1243,7 @@ def _catch_resting(gen: _Gen, ids: np.ndarray, working: int) -> None:
     knitting = {working} | {gen.back[y] for y in set(g.yarn[ids].tolist()) if y in gen.back}
     for c in [c for c in gen.caught if c in knitting]:
         del gen.caught[c]
-    resting = ({*gen.carrier_of.values(), *gen.back.values()}) - knitting
+    resting = ({*gen.carrier_of.values(), *gen.back.values()}) - knitting - {NO_CARRIER}
     used: set[Pos] = set()  # one catch per needle and course (a needle holds two loops)
     for carrier in sorted(resting, key=lambda c: (gen.caught.get(c, course), c)):
         since = gen.caught.setdefault(carrier, course)

@@ -367,12 +367,20 @@ class BackingStmt(Node):
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
+class IntarsiaStmt(Node):
+    """`intarsia where q`: the selected stitches' courses are intarsia: each region of one
+    yarn is knitted by a carrier of its own, joined to its neighbours by tucks."""
+
+    where: Expr | None = None
+
+
+@dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Let(Node):
     name: Ident
     value: Expr
 
 
-LayerStmt = SetStmt | UseStmt | ApplyStmt | GridStmt | KnitStmt | BackingStmt | Let
+LayerStmt = SetStmt | UseStmt | ApplyStmt | GridStmt | KnitStmt | BackingStmt | IntarsiaStmt | Let
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)

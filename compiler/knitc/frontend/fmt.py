@@ -448,6 +448,8 @@ class _Printer:
                 return [f"{indent}knit {node.yarn.name}{self.where(node.where, ex)}"]
             case ast.BackingStmt():
                 return [f"{indent}backing {node.kind.name}{self.where(node.where, ex)}"]
+            case ast.IntarsiaStmt():
+                return [f"{indent}intarsia{self.where(node.where, ex)}"]
             case ast.ApplyStmt():
                 return [
                     f"{indent}apply {node.pattern.name}({ex.args(node.args)})"

@@ -14,7 +14,7 @@ from knitc.lang.evaluate import (
     Value,
 )
 from knitc.patterning.raster import cell_problems
-from knitc.shaping.stitch_graph import BACKINGS, INSTRUCTIONS
+from knitc.shaping.stitch_graph import BACKINGS, INSTRUCTIONS, INTARSIA
 
 # ---- scopes for pattern, action and shaper bodies ----------------------------------------------
 
@@ -143,7 +143,7 @@ class NameChecker:
                     )
             elif isinstance(stmt, ast.BackingStmt):
                 kind = stmt.kind.name
-                if kind not in BACKINGS[1:]:
+                if kind not in BACKINGS[1:INTARSIA]:
                     self.diags.error(
                         "E229",
                         f"unknown backing `{kind}`",
@@ -151,9 +151,11 @@ class NameChecker:
                         hint=(
                             "did you mean `birdseye`? (the yarns alternate on the back)"
                             if kind.startswith("altern")
-                            else _suggest(kind, list(BACKINGS[1:]))
+                            else "intarsia is a statement of its own: `intarsia where Q`"
+                            if kind == "intarsia"
+                            else _suggest(kind, list(BACKINGS[1:INTARSIA]))
                         )
-                        or "a jacquard backing is one of " + ", ".join(BACKINGS[1:]),
+                        or "a jacquard backing is one of " + ", ".join(BACKINGS[1:INTARSIA]),
                     )
             elif isinstance(stmt, ast.ApplyStmt):
                 self._check_apply(stmt, scope)

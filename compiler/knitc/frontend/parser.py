@@ -53,6 +53,7 @@ _KEYWORD_TYPES = frozenset(
         "KW_LET",
         "KW_KNIT",
         "KW_BACKING",
+        "KW_INTARSIA",
         "NODE_KIND",
         "GRID_MODE",
         "STEP",
@@ -320,6 +321,10 @@ class _ToAst(Transformer):
         _kw, name, where = ch
         return ast.KnitStmt(self._ident(name), where, span=self._span(meta))
 
+    def intarsia_stmt(self, meta, ch):
+        _kw, where = ch
+        return ast.IntarsiaStmt(where, span=self._span(meta))
+
     def backing_stmt(self, meta, ch):
         _kw, name, where = ch
         return ast.BackingStmt(self._ident(name), where, span=self._span(meta))
@@ -548,7 +553,16 @@ def _word(terminal: str) -> str:
     return _TERMINAL_WORDS.get(terminal, f"`{terminal.lower()}`")
 
 
-_LAYER_START = {"KW_SET", "KW_USE", "KW_APPLY", "GRID_MODE", "KW_LET", "KW_KNIT", "KW_BACKING"}
+_LAYER_START = {
+    "KW_SET",
+    "KW_USE",
+    "KW_APPLY",
+    "GRID_MODE",
+    "KW_LET",
+    "KW_KNIT",
+    "KW_BACKING",
+    "KW_INTARSIA",
+}
 _TOP_START = {
     "KW_IMPORT",
     "KW_PARAM",
@@ -560,7 +574,18 @@ _TOP_START = {
     "KW_SHAPER",
     "KW_START",
 }
-_LAYER_WORDS = ("set", "use", "apply", "knit", "backing", "draw", "stretch", "tile", "let")
+_LAYER_WORDS = (
+    "set",
+    "use",
+    "apply",
+    "knit",
+    "backing",
+    "intarsia",
+    "draw",
+    "stretch",
+    "tile",
+    "let",
+)
 
 
 def _describe_expected(expected: set[str]) -> str:

@@ -712,6 +712,7 @@ def _layer_keywords() -> Iterator[Item]:
         ("use", "use a stitch action: `use A where Q`"),
         ("knit", "knit with a yarn: `knit red where courses(0:4)`"),
         ("backing", "jacquard: `backing birdseye where courses(10:40)`"),
+        ("intarsia", "each yarn in its own regions: `intarsia where courses(10:40)`"),
         ("apply", "apply a pattern definition: `apply rib(2, 2) where Q`"),
         ("draw", 'draw a grid: `draw """…""" where Q`'),
         ("stretch", "a grid scaled onto the selection"),

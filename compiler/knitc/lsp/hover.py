@@ -139,6 +139,10 @@ KEYWORDS: dict[str, str] = {
     "yarn of the region knits, besides its own stitches, the back needles behind the others' "
     "(`tubular`, `birdseye`, `pique`, `horizontal`, `vertical`; `float` floats them as fair "
     "isle). Sheets only: a tube knits its other side there (E719).",
+    "intarsia": "`intarsia where Q`: the selected stitches' courses are intarsia: each "
+    "region of one yarn is knitted by a carrier of its own, back and forth over its own "
+    "stitches, and tucked to its neighbours at every course (no yarn floats behind "
+    "another's stitches). Between courses of one yarn (E728).",
     "apply": "`apply PATTERN(args) where Q`: run a pattern definition on the selection "
     "(arguments by position, then by name, then the defaults).",
     "where": "`where Q`: the stitches the statement applies to, a query; without it, all "
@@ -179,6 +183,7 @@ _ITEM_KEYWORD: dict[type, str] = {
     ast.UseStmt: "use",
     ast.KnitStmt: "knit",
     ast.BackingStmt: "backing",
+    ast.IntarsiaStmt: "intarsia",
     ast.ApplyStmt: "apply",
     ast.Let: "let",
     ast.If: "if",

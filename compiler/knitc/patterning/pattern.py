@@ -44,8 +44,10 @@ from knitc.shaping.stitch_graph import (
     BACKINGS,
     COURSE_KINDS,
     INSTRUCTIONS,
+    INTARSIA,
     TWO_BED,
     StitchGraph,
+    two_bed,
 )
 from knitc.source import Span
 
@@ -167,7 +169,8 @@ def _check_backing(run: _Run) -> None:
     g, backing, where = run.g, run.backing, run.backing_origin
     if backing is None or where is None or g.n_stitches == 0:
         return
-    on_tube = (backing >= TWO_BED) & g.course_circular[g.course]
+    on_tube = two_bed(backing) & g.course_circular[g.course]
+    _check_intarsia(run)
     for k in np.unique(where[on_tube]).tolist():
         sel = on_tube & (where == k)
         c = int(g.course[np.argmax(sel)])
@@ -181,6 +184,36 @@ def _check_backing(run: _Run) -> None:
             hint="jacquard is knitted on sheets (thesis ch. 6.9.5); a tube's colourwork "
             "floats behind its stitches: fair isle, or `backing float`",
         )
+
+
+def _check_intarsia(run: _Run) -> None:
+    """Intarsia is knitted between courses of one yarn: a region's yarn is brought in over
+    the loops below it and taken out under the loops above it, so an intarsia course that
+    casts on or binds off stitches is E728."""
+    g, backing, where = run.g, run.backing, run.backing_origin
+    assert backing is not None and where is not None
+    mine = backing == INTARSIA
+    if not mine.any():
+        return
+    course = np.zeros(g.n_courses, bool)
+    course[g.course[mine]] = True
+    on = course[g.course]  # every stitch of an intarsia course
+    bad = on & ((g.wale_prev[:, 0] < 0) | (g.wale_next < 0).all(axis=1))
+    if not bad.any():
+        return
+    first = int(np.argmax(bad))
+    c = int(g.course[first])
+    k = where[(g.course == c) & mine]
+    k = k[k >= 0]
+    what = "casts on" if g.wale_prev[first, 0] < 0 else "binds off"
+    run.diags.error(
+        "E728",
+        f"course {c - _node_first_course(g, c)} of `{g.node_names[int(g.course_node[c])]}` "
+        f"is intarsia and {what} stitches",
+        run.spans[int(k[-1])] if k.size else None,
+        hint="keep a course of one yarn below and above an intarsia band: its regions' "
+        "yarns come in over the loops below and go out under the loops above",
+    )
 
 
 def _shown(v: object) -> str:
@@ -263,6 +296,8 @@ class _Run:
                 self.knit_with(stmt, node, env, within)
             elif isinstance(stmt, ast.BackingStmt):
                 self.back_with(stmt, node, env, within)
+            elif isinstance(stmt, ast.IntarsiaStmt):
+                self.set_backing(self.select(node, stmt.where, env, within), INTARSIA, stmt.span)
             elif isinstance(stmt, ast.GridStmt):
                 drawing.apply_grid(self, stmt, node, env, within)
 
@@ -298,14 +333,18 @@ class _Run:
         self, stmt: ast.BackingStmt, node: int | None, env: QueryEnv, within: np.ndarray | None
     ) -> None:
         """`backing KIND where Q`: the selected stitches' courses are jacquard."""
-        if stmt.kind.name not in BACKINGS[1:]:
+        if stmt.kind.name not in BACKINGS[1:INTARSIA]:
             return  # the resolver reported it (E229)
         mask = self.select(node, stmt.where, env, within)
+        self.set_backing(mask, BACKINGS.index(stmt.kind.name), stmt.span)
+
+    def set_backing(self, mask: np.ndarray, kind: int, span: Span) -> None:
+        """The stitches in `mask` take backing `kind` (`BACKINGS`), written at `span`."""
         if self.backing is None or self.backing_origin is None:
             self.backing = np.zeros(self.g.n_stitches, np.int8)
             self.backing_origin = np.full(self.g.n_stitches, -1, np.int32)
-        self.backing[mask] = BACKINGS.index(stmt.kind.name)
-        self.backing_origin[mask] = self.span_id(stmt.span)
+        self.backing[mask] = kind
+        self.backing_origin[mask] = self.span_id(span)
 
     def set_yarn(self, mask: np.ndarray, yarn: int | np.ndarray, span: Span) -> None:
         """The stitches in `mask` take `yarn` (a yarn index, or one per stitch), written by

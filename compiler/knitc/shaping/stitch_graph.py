@@ -47,14 +47,34 @@ INSTRUCTIONS = (
 
 COURSE_KINDS = ("regular", "short_row", "continuity", "interface")
 
-BACKINGS = ("none", "float", "tubular", "birdseye", "pique", "horizontal", "vertical")
-"""How the yarns of a jacquard course knit behind the stitches they do not show on
-(`backing KIND where q`; thesis ch. 6.9.5, Fig. 6-44): `float` as fair isle, behind the
-front stitches; the others knit on the other bed, each back needle by the yarns the kind
-chooses (`codegen.backing`)."""
+BACKINGS = (
+    "none",
+    "float",
+    "tubular",
+    "birdseye",
+    "pique",
+    "horizontal",
+    "vertical",
+    "intarsia",
+)
+"""How the yarns of a course of several knit the stitches they do not show on (`backing
+KIND where q`; thesis ch. 6.9.5, Fig. 6-44): `float` as fair isle, behind the front
+stitches; from `tubular` to `vertical` (jacquard) they knit on the other bed, each back
+needle by the yarns the kind chooses (`codegen.backing`); `intarsia` (`intarsia where q`,
+ch. 6.9.6): they do not pass there at all, each region of one yarn has its own carrier."""
 
 TWO_BED = BACKINGS.index("tubular")
-"""Backings from this index on knit on the other bed (`float` floats behind, as fair isle)."""
+"""Backings from this index up to `INTARSIA` knit on the other bed."""
+
+INTARSIA = BACKINGS.index("intarsia")
+JACQUARD = BACKINGS[TWO_BED:INTARSIA]
+"""The two-bed backings' names."""
+
+
+def two_bed(backing: np.ndarray) -> np.ndarray:
+    """Per stitch: whether its backing is a jacquard one, knitted on the other bed."""
+    return (backing >= TWO_BED) & (backing < INTARSIA)
+
 
 NONE = -1
 
@@ -126,7 +146,11 @@ class StitchGraph:
         several yarns (fair isle) it is the yarn that carried the node's course before, if
         it knits here too, so a band does not hand the course from yarn to yarn; else the
         one knitting most of it (the lowest on a tie). The others float behind and knit
-        their own stitches in passes of their own."""
+        their own stitches in passes of their own. An intarsia course (`backing`
+        INTARSIA) is carried by no yarn of the design: it is `len(yarn_names)`, a yarn of
+        its own for the tracer and the stripes pass, so the yarn of the courses below it
+        rests at the side meanwhile (each region has a carrier of its own,
+        `shaping.intarsia`)."""
         assert self.yarn is not None
         out = self.yarn[self.course_start].copy() if self.n_stitches else self.yarn[:0]
         first = np.repeat(out, self.course_len)
@@ -142,6 +166,8 @@ class StitchGraph:
                 out[c] = before if keep else int(np.argmax(counts))
             if self.course_len[c]:
                 last[node] = int(out[c])
+        if self.backing is not None and (self.backing == INTARSIA).any():
+            out[np.unique(self.course[self.backing == INTARSIA])] = len(self.yarn_names)
         return out
 
     @property

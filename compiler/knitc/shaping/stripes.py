@@ -54,8 +54,11 @@ def orient_stripes(g: StitchGraph) -> StitchGraph:
             order[s : s + n] = order[s : s + n][::-1].copy()
             flipped[c] = True
         last = int(order[s + n - 1])
-        for k in set(g.yarn[s : s + n].tolist()):  # (fair isle: every yarn of the course
-            rest[k] = (node, int(g.side[last]), int(g.needle[last]))  # ends where it ends)
+        # (fair isle: every yarn of the course ends where it ends; an intarsia course's
+        # regions have carriers of their own, and its yarns rest where they were)
+        ys = {y} if y == len(g.yarn_names) else set(g.yarn[s : s + n].tolist())
+        for k in ys:
+            rest[k] = (node, int(g.side[last]), int(g.needle[last]))
     if not flipped.any():
         return g
     return _renumber(g, order, flipped)

@@ -1,0 +1,177 @@
+"""Intarsia: `intarsia where Q`, each region of one yarn on a carrier of its own (thesis ch.
+6.9.6).
+
+Properties of the regions (`shaping.intarsia.regions`) on random designs: every stitch of
+an intarsia course has a region and no other stitch has one; a region is of one yarn; two
+neighbours in a course share a region exactly when they share a yarn (a round's first and
+last stitch too); a wale between two intarsia stitches of one yarn stays in a region.
+
+Then designs on sheets and tubes, compiled to the end, run clean on the independent
+machine and knit the designed fabric: each stitch on its region's yarn, and every wall
+between two regions joined at every course (`fabric._walls`: no slit); and round-trip
+through DAT.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from fabric import assert_knits_as_designed
+from knitc.backends.dat_format import decode, encode, rows
+from knitc.backends.dat_write import to_dat
+from knitc.driver import compile_source
+from knitc.shaping.intarsia import regions
+from knitc.shaping.stitch_graph import INTARSIA
+
+TWO = "yarn red { carrier: 5 }\n"
+THREE = TWO + "yarn navy { carrier: 6 }\n"
+
+
+@st.composite
+def intarsia(draw) -> str:
+    """A sheet or tube, maybe narrowing, with one or two motifs (rectangles of red and
+    navy, maybe on one face of a tube) in an intarsia band between plain courses."""
+    kind = draw(st.sampled_from(["sheet", "tube"]))
+    length = draw(st.integers(6, 18))
+    w0 = draw(st.integers(6, 14))
+    w1 = draw(st.sampled_from([w0, w0, max(w0 - 2, 5)]))
+    width = f"{w0}" if w0 == w1 else f"[0: {w0}, 1: {w1}]"
+    a = draw(st.integers(1, length - 3))
+    b = draw(st.integers(a, length - 2))
+    lines = [THREE, f"{kind} p {{ length: {length}, width: {width} }}", "pattern p {"]
+    for yarn in draw(st.sampled_from([("red",), ("red", "navy")])):
+        c0 = draw(st.integers(a, b))
+        c1 = draw(st.integers(c0, b))
+        lo = draw(st.sampled_from([0.0, 0.2, 0.4, 0.6]))
+        hi = min(lo + draw(st.sampled_from([0.2, 0.3, 0.5])), 1.0)
+        where = f"courses({c0}:{c1}) and wales({lo}:{hi})"
+        if kind == "tube" and draw(st.booleans()):
+            where += f" and side({draw(st.sampled_from(['front', 'back']))})"
+        lines.append(f"  knit {yarn} where {where}")
+    lines.append(f"  intarsia where courses({a}:{b})")
+    lines.append("}")
+    return "\n".join(lines) + "\n"
+
+
+@settings(max_examples=60, derandomize=True, deadline=None)
+@given(intarsia())
+def test_regions_follow_the_yarns(text):
+    r = compile_source(text, "i.knit", until="stitch-graph")
+    g = r.graph
+    assert g is not None and g.backing is not None and g.yarn is not None, text
+    reg = regions(g)
+    band = np.zeros(g.n_courses, bool)
+    band[g.course[g.backing == INTARSIA]] = True
+    on = band[g.course]
+    assert ((reg >= 0) == on).all()
+    for k in np.unique(reg[on]).tolist():  # a region is of one yarn
+        assert len(set(g.yarn[reg == k].tolist())) == 1
+    ids = np.nonzero(on)[0]
+    nxt = g.cnext[ids]
+    has = nxt >= 0
+    a, b = ids[has], nxt[has]
+    assert ((reg[a] == reg[b]) == (g.yarn[a] == g.yarn[b])).all()
+    child = g.wale_next[ids, 0]
+    ok = (child >= 0) & on[np.maximum(child, 0)]
+    a, b = ids[ok], child[ok]
+    same = g.yarn[a] == g.yarn[b]
+    assert (reg[a][same] == reg[b][same]).all()
+
+
+DESIGNS = {
+    "sheet-block": TWO
+    + "sheet s { length: 16, width: 14 }\n"
+    + "pattern s {\n  knit red where courses(4:11) and wales(4:9)\n"
+    + "  intarsia where courses(4:11)\n}\n",
+    # regions that change width every course, two yarns, a narrowing sheet, an odd band
+    "sheet-diamond": THREE
+    + "sheet s { length: 24, width: [0: 20, 1: 16] }\n"
+    + 'pattern s {\n  draw """\n'
+    + "    .   .   red .   .   .   .   .   .   .   navy navy\n"
+    + "    .   red red red .   .   .   .   .   .   navy navy\n"
+    + "    red red red red red .   .   .   .   .   navy navy\n"
+    + "    .   red red red .   .   .   .   .   .   navy navy\n"
+    + "    .   .   red .   .   .   .   .   .   .   navy navy\n"
+    + '  """ where courses(5:9)\n  intarsia where courses(5:9)\n}\n',
+    # a U of red around a navy block: red's one carrier knits both arms
+    "sheet-u": THREE
+    + "sheet s { length: 14, width: 12 }\n"
+    + 'pattern s {\n  tile """\n    red  navy navy red\n    red  navy navy red\n'
+    + '    red  red  red  red\n  """ where courses(3:8) and wales(4:7)\n'
+    + "  intarsia where courses(3:8)\n}\n",
+    # a band longer than main's carry_up: main is ended and brought back in above it
+    "sheet-long": TWO
+    + "sheet s { length: 30, width: 10 }\n"
+    + "pattern s {\n  knit red where courses(3:24) and wales(3:6)\n"
+    + "  intarsia where courses(3:24)\n}\n",
+    "tube-front": TWO
+    + "tube t { length: 16, width: 12 }\n"
+    + "pattern t {\n  knit red where courses(4:10) and wales(0.3:0.7) and side(front)\n"
+    + "  intarsia where courses(4:10)\n}\n",
+    "tube-two-faces": THREE
+    + "tube t { length: 16, width: 10, gauge: half }\n"
+    + "pattern t {\n  knit red where courses(3:10) and wales(0.2:0.5) and side(front)\n"
+    + "  knit navy where courses(5:8) and wales(0.4:0.8) and side(back)\n"
+    + "  intarsia where courses(3:10)\n}\n",
+}
+
+
+def _compiled(name: str):
+    r = compile_source(DESIGNS[name], f"{name}.knit", until="machine")
+    assert r.program is not None and not r.diagnostics.has_errors, r.diagnostics.render()
+    return r
+
+
+def test_intarsia_designs_knit_as_designed_on_the_independent_machine():
+    results = [_compiled(n) for n in DESIGNS]
+    for name, r in zip(DESIGNS, results, strict=True):
+        assert not r.diagnostics.warning_count, (name, r.diagnostics.render())
+    assert_knits_as_designed(results, names=list(DESIGNS))
+
+
+@pytest.mark.parametrize("name", ["sheet-diamond", "tube-front"])
+def test_intarsia_designs_round_trip_through_dat(name):
+    image = to_dat(_compiled(name).program)
+    assert rows(decode(encode(image))) == rows(image)
+
+
+def test_each_region_has_its_own_carrier_in_once_and_out_once():
+    r = _compiled("sheet-block")
+    ops = r.program.ops
+    ins = [op.carriers[0] for op in ops if op.kind == "in"]
+    outs = [op.carriers[0] for op in ops if op.kind == "outhook"]
+    # main's background left and right of the block, and the block: three regions, three
+    # carriers, none of them main's own (it rests at the side over the band)
+    assert len(ins) == 3 and len(set(ins)) == 3 and 3 not in ins
+    assert sorted(ins) == sorted(o for o in outs if o in ins)
+    joins = [
+        op for op in ops if op.phase == "float_catch" and op.kind == "tuck" and op.carriers[0] != 3
+    ]  # (main's own are its catches into the edge while it rests)
+    assert len(joins) == 2 * 8  # two walls, one tuck join each, eight courses
+
+
+def test_no_yarn_floats_across_another_region():
+    """Every knit of an intarsia course's region carrier is on its own region's needles."""
+    r = _compiled("sheet-diamond")
+    g = r.graph
+    reg = regions(g)
+    by_carrier: dict[int, set[int]] = {}
+    for op in r.program.ops:
+        if op.kind == "knit" and op.stitch >= 0 and reg[op.stitch] >= 0:
+            by_carrier.setdefault(op.carriers[0], set()).add(int(reg[op.stitch]))
+    assert all(len(v) == 1 for v in by_carrier.values()), by_carrier
+
+
+@settings(max_examples=4, derandomize=True, deadline=None)
+@given(st.lists(intarsia(), min_size=6, max_size=6))
+def test_random_intarsia_designs_knit_as_designed(texts):
+    """Six random designs at a time (one oracle process for all)."""
+    results = []
+    for i, text in enumerate(texts):
+        r = compile_source(text, f"i{i}.knit", until="machine")
+        assert r.program is not None, text + r.diagnostics.render()
+        results.append(r)
+    assert_knits_as_designed(results, names=[f"design {i}:\n{t}" for i, t in enumerate(texts)])
