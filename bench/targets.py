@@ -57,6 +57,27 @@ pattern s {
   apply checks("red")
 }
 """
+JACQUARD = """\
+// jacquard-100k: the fair isle sheet with a birdseye back (twice the loops of the plain one)
+import std.colour (checks)
+yarn red { carrier: 5 }
+sheet s { length: 400, width: 250 }
+pattern s {
+  apply checks("red")
+  backing birdseye
+}
+"""
+INTARSIA = """\
+// intarsia-100k: the plain sheet with two tall intarsia blocks (five regions a course)
+yarn red { carrier: 5 }
+yarn navy { carrier: 6 }
+sheet s { length: 400, width: 250 }
+pattern s {
+  knit red where courses(20:379) and wales(0.1:0.4)
+  knit navy where courses(40:359) and wales(0.6:0.9)
+  intarsia where courses(20:379)
+}
+"""
 TUBE_100K = "tube t { length: 400, width: 125 }\n"
 TUBE_1M = "tube t { length: 1000, width: 500 }\n"
 
@@ -76,6 +97,8 @@ def run_cases(tmp: Path) -> dict[str, dict]:
         "sheet-100k": _compile(tmp, "sheet-100k", PLAIN, 3),
         "lace-100k": _compile(tmp, "lace-100k", LACE, 3),
         "fair-isle-100k": _compile(tmp, "fair-isle-100k", FAIR_ISLE, 3),
+        "jacquard-100k": _compile(tmp, "jacquard-100k", JACQUARD, 3),
+        "intarsia-100k": _compile(tmp, "intarsia-100k", INTARSIA, 3),
         "tube-100k": _compile(tmp, "tube-100k", TUBE_100K, 3),
         "tube-1M": _compile(tmp, "tube-1M", TUBE_1M, 1),
     }
@@ -108,6 +131,10 @@ def judge(cases: dict[str, dict], peer: dict[str, Any], orig: dict[str, Any]) ->
                 1.3, "x", False),
         _target("fair isle sheet / plain sheet (100k; issue 17)",
                 ratio("fair-isle-100k", "sheet-100k"), 2.0, "x", False),
+        _target("jacquard sheet / plain sheet (100k; issue 17)",
+                ratio("jacquard-100k", "sheet-100k"), 2.0, "x", False),
+        _target("intarsia sheet / plain sheet (100k; issue 17)",
+                ratio("intarsia-100k", "sheet-100k"), 2.0, "x", False),
     ]
     for key, what, limit in (
         ("knit_script_sheet_50k", "knit-script / knitc, 50k-stitch sheet", peers.KS_TARGET),

@@ -138,6 +138,8 @@ class Bed:
         empty_numbers: list[int],
         carrier: int,
         span_of: Mapping[int, Span | None] | None = None,
+        behind: list[bool] | None = None,
+        behind_span: Mapping[int, Span | None] | None = None,
     ) -> None:
         """A plain pass, stitch by stitch in order: each stitch knitted in its direction on
         its needle through the needle's loops at its stitch number, or on an empty needle
@@ -145,7 +147,11 @@ class Bed:
         `prog.stitch_number` and `stitch_op` per stitch; made here in one loop, from one
         list per column, because most passes of every design are plain (issue 16).
         `span_of` gives the ops of these stitches other source spans (a fair isle yarn's
-        knits point at the `knit YARN` statement)."""
+        knits point at the `knit YARN` statement).
+
+        `behind` marks entries that are a jacquard backing's loop on the needle behind the
+        stitch (its needle given): knitted at the stitch number (a tuck on an empty needle),
+        code pass "backing", at `behind_span` of the stitch, a loop of no stitch."""
         prog, loops, where, at = self.prog, self.loops, self.where, self.at
         carriers = (carrier,)
         if self._span_of is None:
@@ -158,10 +164,27 @@ class Bed:
         # each op is `prog.needle_op`'s, built here without its call and the named tuple's
         # Python-level __new__ (two calls per stitch of every plain pass)
         ops, new, phase, shared = prog.ops, tuple.__new__, prog.phase, _NEEDLES.get
-        for stitch, d, pos, plain, empty in zip(
-            stitches, dirs, needles, numbers, empty_numbers, strict=True
+        for i, (stitch, d, pos, plain, empty) in enumerate(
+            zip(stitches, dirs, needles, numbers, empty_numbers, strict=True)
         ):
             full = loops.get(pos, 0)
+            if behind is not None and behind[i]:  # a backing loop: no stitch's own
+                if at.get(pos):
+                    raise Unsupported(
+                        f"the jacquard backing behind stitch {stitch} needs needle "
+                        f"{pos[0]}{pos[1]}, which holds fabric",
+                        hint="a jacquard backing knits on the needles behind a sheet: keep "
+                        "other fabric off them (knit the sheet on its own, or `backing float`)",
+                    )
+                if plain != number:
+                    prog.stitch_number(plain)
+                    number = plain
+                n = shared(pos) or needle(pos)
+                span = behind_span[stitch] if behind_span is not None else spans[stitch]
+                kind = "knit" if full else "tuck"
+                ops.append(new(Op, (kind, d, n, None, carriers, None, stitch, span, "backing")))
+                loops[pos] = 1  # (a knit leaves its new loop; a tuck on an empty needle, one)
+                continue
             k = plain if full else empty
             if k != number:
                 prog.stitch_number(k)

@@ -223,6 +223,9 @@ class _Gen:
     """Intarsia regions being knitted -> their carriers."""
     round_parts: list[np.ndarray] = field(default_factory=list)
     """The slices of an intarsia round seen so far: it is knitted once all are placed."""
+    backed_list: list[bool] = field(default_factory=list)
+    kid_list: list[int] = field(default_factory=list)
+    """`backed` and each stitch's child (or -1) as lists, for per-loop look-ups."""
     catch: list[Pos] = field(default_factory=list)
     """The catching tucks of the yarn start being knitted (a cast-on's, or a jacquard yarn's
     brought in for its pass, `_back_carrier`): dropped once a pass holds the yarn."""
@@ -285,6 +288,8 @@ class _Gen:
                 )
                 bent = np.bincount(g.course[~straight], minlength=g.n_courses) > 0
                 self.backed = jacquard & ~bent[g.course]
+                self.backed_list = self.backed.tolist()
+                self.kid_list = kid.tolist()
                 for c in np.nonzero(self.jacquard)[0].tolist():
                     for y in self.region_yarns[int(g.course_node[c])]:
                         if y != int(self.course_yarn[c]):
@@ -1043,40 +1048,31 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
         carrier = ctx.carrier if y == base else _back_carrier(gen, y, first, start)
 
         spans = None if y == base else _yarn_spans(gen, ids)
-        n = every[y] if y < len(every) and back is None else 0
-        cuts = _catches(gen, stitches, sel, done, n) if n > 0 else {}
-        run: list[int] = []  # the yarn's front knits not knitted yet, in pass order
-
-        def flush(run: list[int] = run, carrier: int = carrier, spans=spans) -> None:
-            if run:
-                gen.bed.knit_run(
-                    stitches[run].tolist(),
-                    dirs[run].tolist(),
-                    [gen.positions[int(s)] for s in stitches[run]],
-                    plain[run].tolist(),
-                    empty[run].tolist(),
-                    carrier,
-                    spans,
-                )
-                run.clear()
-
-        for t in np.nonzero(sel if back is None else sel | back)[0].tolist():
-            if t in cuts:  # its float's catches before the yarn's next knit
-                flush()
-                for c in cuts[t]:
-                    _catch(gen, carrier, int(stitches[c]), int(dirs[c]), int(ids[0]))
-            # at quarter pitch a back needle sits a quarter needle right of its front one:
-            # the carriage meets the front one first going right, the back one going left
-            both = back is not None and bool(back[t])
-            if both and dirs[t] < 0:
-                flush()
-                _back_knit(gen, carrier, int(stitches[t]), int(dirs[t]), int(plain[t]))
-            if sel[t]:
-                run.append(t)
-            if both and dirs[t] > 0:
-                flush()
-                _back_knit(gen, carrier, int(stitches[t]), int(dirs[t]), int(plain[t]))
-        flush()
+        if back is not None:
+            _jacquard_run(gen, carrier, stitches, sel, back, dirs, plain, empty, spans)
+        else:
+            n = every[y] if y < len(every) else 0
+            cuts = _catches(gen, stitches, sel, done, n) if n > 0 else {}
+            at = np.nonzero(sel)[0]
+            start_j = 0
+            for j in range(len(at) + 1):  # runs of the yarn's knits, a catch between two
+                if j < len(at) and int(at[j]) not in cuts:
+                    continue
+                part = at[start_j:j]
+                if part.size:
+                    gen.bed.knit_run(
+                        stitches[part].tolist(),
+                        dirs[part].tolist(),
+                        [gen.positions[int(s)] for s in stitches[part]],
+                        plain[part].tolist(),
+                        empty[part].tolist(),
+                        carrier,
+                        spans,
+                    )
+                if j < len(at):
+                    for c in cuts[int(at[j])]:
+                        _catch(gen, carrier, int(stitches[c]), int(dirs[c]), int(ids[0]))
+                start_j = j
         _drop_catch(gen)  # its pass holds the new yarn now (or the course's, on a cast-on)
         done |= sel
         if y == base:  # (its lead-out in its own pass, before the other yarns')
@@ -1169,30 +1165,60 @@ def _end_regions(gen: _Gen, course: int) -> None:
         gen.free.append(carrier)
 
 
-def _back_knit(gen: _Gen, carrier: int, s: int, d: int, number: int) -> None:
-    """A jacquard yarn's knit on the needle behind stitch s (a tuck on its first course,
-    the needle being empty): the backing's loop, which the next course's back knit there
-    knits through, or `_close_backing` puts onto the stitch's needle."""
-    bed = gen.bed
-    pos = gen.positions[s]
-    behind: Pos = ("b" if pos[0] == "f" else "f", pos[1])
-    if bed.at.get(behind):
-        raise Unsupported(
-            f"the jacquard backing behind stitch {s} needs needle {behind[0]}{behind[1]}, "
-            "which holds fabric",
-            hint="a jacquard backing knits on the needles behind a sheet: keep other "
-            "fabric off them (knit the sheet on its own, or use `backing float`)",
-        )
-    kind = "knit" if bed.loops.get(behind, 0) else "tuck"
-    origin = gen.g.backing_origin
-    k = -1 if origin is None else int(origin[s])
-    span = gen.g.spans[k] if k >= 0 else bed.span(s)  # (the `backing` statement)
-    with bed.prog.code_pass("backing"):  # (the op names stitch s: the loop is behind it)
-        bed.prog.stitch_number(number)
-        bed.prog.needle_op(kind, d, needle_of(behind), (carrier,), s, span)
-    bed.loops[behind] = 1 if kind == "knit" else bed.loops.get(behind, 0) + 1
-    bed.carrier_at[carrier] = behind[1] + 0.5 * d
-    gen.backing_at[behind] = s
+def _jacquard_run(
+    gen: _Gen,
+    carrier: int,
+    stitches: np.ndarray,
+    sel: np.ndarray,
+    back: np.ndarray,
+    dirs: np.ndarray,
+    plain: np.ndarray,
+    empty: np.ndarray,
+    spans: Mapping[int, Span | None] | None,
+) -> None:
+    """A jacquard yarn's pass: its front stitches (`sel`) and the back needles behind the
+    stitches its backing gives it (`back`), in pass order, in one `Bed.knit_run`. At quarter
+    pitch a back needle sits a quarter needle right of its front one: the carriage meets
+    the front one first going right, the back one going left. A back op names the stitch
+    it is behind and points at the `backing` statement; the first on an empty needle is a
+    tuck. The loops it leaves are the back layer's (`_Gen.backing_at`)."""
+    g = gen.g
+    fronts = np.nonzero(sel)[0]
+    behind = np.nonzero(back)[0]
+    left = dirs < 0
+    key = np.r_[2 * fronts + left[fronts], 2 * behind + ~left[behind]]
+    order = np.argsort(key, kind="stable")
+    t = np.r_[fronts, behind][order]
+    is_back = (np.arange(len(key)) >= len(fronts))[order]
+    ids = stitches[t].tolist()
+    positions = gen.positions
+    needles = [positions[s] for s in ids]
+    flip = {"f": "b", "b": "f"}
+    for i in np.nonzero(is_back)[0].tolist():
+        pos = needles[i]
+        needles[i] = (flip[pos[0]], pos[1])
+    origin = g.backing_origin
+    back_span = (
+        {
+            s: (g.spans[k] if (k := int(origin[s])) >= 0 else gen.bed.span(s))
+            for s in stitches[behind].tolist()
+        }
+        if origin is not None
+        else None
+    )
+    gen.bed.knit_run(
+        ids,
+        dirs[t].tolist(),
+        needles,
+        plain[t].tolist(),
+        empty[t].tolist(),
+        carrier,
+        spans,
+        behind=is_back.tolist(),
+        behind_span=back_span,
+    )
+    for i in np.nonzero(is_back)[0].tolist():
+        gen.backing_at[needles[i]] = ids[i]
 
 
 def _close_backing(gen: _Gen, ids: np.ndarray) -> None:
@@ -1203,10 +1229,11 @@ def _close_backing(gen: _Gen, ids: np.ndarray) -> None:
     g, bed = gen.g, gen.bed
     assert g.backing is not None
     mine = set(ids.tolist())
+    backed, kid = gen.backed_list, gen.kid_list
     for behind, s in list(gen.backing_at.items()):
         if s not in mine:
             continue
-        if gen.backed[s] and gen.backed[int(g.wale_next[s].max())]:
+        if backed[s] and backed[kid[s]]:
             continue  # (the stitch above knits a backing loop through this one)
         front = bed.where.get(s)
         if front is None or front[1] != behind[1]:

@@ -142,7 +142,7 @@ KEYWORDS: dict[str, str] = {
     "intarsia": "`intarsia where Q`: the selected stitches' courses are intarsia: each "
     "region of one yarn is knitted by a carrier of its own, back and forth over its own "
     "stitches, and tucked to its neighbours at every course (no yarn floats behind "
-    "another's stitches). Between courses of one yarn (E728).",
+    "another's stitches). Between courses of one yarn (E730).",
     "apply": "`apply PATTERN(args) where Q`: run a pattern definition on the selection "
     "(arguments by position, then by name, then the defaults).",
     "where": "`where Q`: the stitches the statement applies to, a query; without it, all "

@@ -189,7 +189,7 @@ def _check_backing(run: _Run) -> None:
 def _check_intarsia(run: _Run) -> None:
     """Intarsia is knitted between courses of one yarn: a region's yarn is brought in over
     the loops below it and taken out under the loops above it, so an intarsia course that
-    casts on or binds off stitches is E728."""
+    casts on or binds off stitches is E730."""
     g, backing, where = run.g, run.backing, run.backing_origin
     assert backing is not None and where is not None
     mine = backing == INTARSIA
@@ -207,7 +207,7 @@ def _check_intarsia(run: _Run) -> None:
     k = k[k >= 0]
     what = "casts on" if g.wale_prev[first, 0] < 0 else "binds off"
     run.diags.error(
-        "E728",
+        "E730",
         f"course {c - _node_first_course(g, c)} of `{g.node_names[int(g.course_node[c])]}` "
         f"is intarsia and {what} stitches",
         run.spans[int(k[-1])] if k.size else None,
