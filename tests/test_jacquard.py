@@ -6,8 +6,8 @@ of a two-bed backing has its back needle knitted, by the yarns its kind says (th
 yarns for tubular, one per needle for birdseye / pique / vertical, all for horizontal), so
 no yarn floats more than the region's yarn count of needles behind the front.
 
-Then random jacquard sheets and every backing for 2 and 3 yarns, compiled to the end, run
-clean on the independent machine and knit the designed fabric with the back layer the
+Then random jacquard sheets and half-gauge tubes and every backing for 2 and 3 yarns,
+compiled to the end, run clean on the independent machine and knit the designed fabric with the back layer the
 check expects (`fabric._backing`: a backing loop behind each stitch of a straight course,
 back loops pulled through back loops only and closed onto the front where the region ends
 or the sheet is shaped), and round-trip through DAT.
@@ -111,7 +111,16 @@ DESIGNS = {f"{kind}-{n}": _design(kind, n) for kind in ("float", *JACQUARD) for 
     + "sheet s { length: 10, width: 8, gauge: half }\n"
     + "pattern s {\n  knit red where courses(2:7) and filter(wale % 2 == 0)\n"
     + "  backing birdseye where courses(2:7)\n}\n",
-    # a tube's colourwork floats: `backing float` is fair isle
+    # a half-gauge tube has the needles behind both sides free: the back of its back side
+    # is knitted on the front bed; the band is unshaped, the tube narrows above it
+    **{
+        f"half-tube-{kind}": TWO
+        + "tube t { length: 16, width: [0: 10, 0.6: 10, 1: 7], gauge: half }\n"
+        + "pattern t {\n  knit red where courses(2:7) and filter(wale % 3 == 0)\n"
+        + f"  backing {kind} where courses(1:7)\n}}\n"
+        for kind in ("tubular", "birdseye", "vertical")
+    },
+    # a full-gauge tube's colourwork floats: `backing float` is fair isle
     "tube-float": TWO
     + "tube t { length: 10, width: 8 }\n"
     + "pattern t {\n  knit red where courses(2:5) and filter(wale % 2 == 0)\n"
@@ -181,6 +190,17 @@ def test_the_stitch_graph_dump_names_the_backing():
     assert kinds == {None, "pique"}
 
 
+def test_a_shaped_band_on_a_half_gauge_tube_is_e719():
+    text = (
+        TWO + "tube t { length: 14, width: [0: 10, 1: 7], gauge: half }\npattern t {\n"
+        "  knit red where courses(2:11) and filter(wale % 2 == 0)\n"
+        "  backing birdseye where courses(2:11)\n}\n"
+    )
+    r = compile_source(text, "t.knit", until="machine")
+    errors = [d for d in r.diagnostics if d.is_error]
+    assert [d.code for d in errors] == ["E719"] and "shaped" in errors[0].message
+
+
 def test_a_jacquard_course_with_a_purl_is_e711():
     text = (
         TWO + "sheet s { length: 10, width: 8 }\npattern s {\n"
@@ -195,14 +215,21 @@ def test_a_jacquard_course_with_a_purl_is_e711():
 
 @st.composite
 def jacquard(draw) -> str:
-    """A sheet, maybe narrowing, with a random chart of 2 or 3 yarns over a random band of
-    courses and a random backing over a band that overlaps it."""
+    """A sheet, maybe narrowing, or an unshaped half-gauge tube, with a random chart of 2
+    or 3 yarns over a random band of courses and a random backing over a band that
+    overlaps it."""
+    tube = draw(st.booleans())
     length = draw(st.integers(4, 16))
     w0 = draw(st.integers(4, 12))
-    w1 = draw(st.sampled_from([w0, w0, max(w0 - 3, 3)]))
+    w1 = w0 if tube else draw(st.sampled_from([w0, w0, max(w0 - 3, 3)]))
     width = f"{w0}" if w0 == w1 else f"[0: {w0}, 1: {w1}]"
     n = draw(st.integers(2, 3))
-    lines = [TWO if n == 2 else THREE, f"sheet s {{ length: {length}, width: {width} }}"]
+    node = (
+        f"tube s {{ length: {length}, width: {width}, gauge: half }}"
+        if tube
+        else (f"sheet s {{ length: {length}, width: {width} }}")
+    )
+    lines = [TWO if n == 2 else THREE, node]
     lines.append("pattern s {")
     a = draw(st.integers(0, length - 1))
     b = draw(st.integers(a, length - 1))

@@ -308,6 +308,11 @@ def test_yarn_declarations_and_knit_statements():
     assert ans.start == text.index("re|")
     # and from the word before when the statement does not parse up to the cursor
     assert inserts_at(design.replace("|", "set K K\n  knit |")) == ["main", "red"]
+    # the layer statements of colourwork, and the backings after `backing`
+    assert {"backing", "intarsia"} <= set(inserts_at(layer))
+    backings = ["float", "tubular", "birdseye", "pique", "horizontal", "vertical"]
+    assert inserts_at(design.replace("|", "backing |")) == backings
+    assert inserts_at(design.replace("|", "set K K\n  backing |")) == backings
     a = analysis(design.replace("|", "knit "))
     assert [i.insert for i in c.answer(a, a.text.index("knit ") + 5, trigger=" ").items] == [
         "main",

@@ -296,11 +296,25 @@ def test_hover_on_yarns_their_keywords_and_properties():
         got = hover_text(a, needle, 1)
         assert got is not None and got.startswith(f"**`{keyword}`** — keyword"), needle
     assert hover_text(a, "knit(dir)", 1) is None  # an action step's operation
+
     carrier = hover_text(a, "carrier: 5", 2)
     assert carrier is not None and "**carrier**: whole number — property of `yarn`" in carrier
     assert "- default: chosen by knitc" in carrier and "- here: `5`" in carrier
     carry = hover_text(a, "carry_up", 3)
     assert carry is not None and "- default: `8`" in carry and "- here: `4`" in carry
+
+
+def test_hover_on_the_colourwork_statements():
+    a = local(
+        "yarn red { carrier: 5 }\nsheet s { length: 12, width: 10 }\npattern s {\n"
+        "  knit red where courses(2:4) and wales(3:6)\n  backing birdseye where courses(2:3)\n"
+        "  intarsia where courses(4:4)\n}\n"
+    )
+    for needle in ("backing birdseye", "intarsia where"):
+        word = needle.split()[0]
+        got = hover_text(a, needle, 2)
+        assert got is not None and got.startswith(f"**`{word}`** — keyword"), got
+        assert f"`{word} " in got
 
 
 def test_hover_on_a_yarn_of_a_stale_module():

@@ -427,6 +427,8 @@ def _lexical_name(
         return "class", ()
     if before in ("KW_APPLY", "KW_USE") or after == "LPAR":
         return "function", ()
+    if before == "KW_BACKING":  # `backing birdseye`: one of a fixed set of words
+        return "enumMember", ()
     if toks[i].value in _choice_words():
         return "enumMember", ()
     return "variable", ()

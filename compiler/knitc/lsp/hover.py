@@ -138,7 +138,8 @@ KEYWORDS: dict[str, str] = {
     "backing": "`backing KIND where Q`: the selected stitches' courses are jacquard: each "
     "yarn of the region knits, besides its own stitches, the back needles behind the others' "
     "(`tubular`, `birdseye`, `pique`, `horizontal`, `vertical`; `float` floats them as fair "
-    "isle). Sheets only: a tube knits its other side there (E719).",
+    "isle). On sheets and half-gauge tubes: a full-gauge tube knits its other side there "
+    "(E719).",
     "intarsia": "`intarsia where Q`: the selected stitches' courses are intarsia: each "
     "region of one yarn is knitted by a carrier of its own, back and forth over its own "
     "stitches, and tucked to its neighbours at every course (no yarn floats behind "

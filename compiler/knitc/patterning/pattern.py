@@ -161,29 +161,52 @@ def _check_fair_isle(run: _Run) -> None:
 
 
 def _check_backing(run: _Run) -> None:
-    """A jacquard backing knits on the needles facing the course's stitches, which only a
-    sheet leaves free: a two-bed backing on a tube's course is E719, at the `backing`
-    statement (a tube's colourwork floats: fair isle, or `backing float`). (A half-gauge
-    tube has free needles behind both sides, but its slices' alignments move its loops
-    across them, which a back layer would be in the way of.)"""
+    """A jacquard backing knits on the needles behind the course's stitches. A sheet leaves
+    them free, and so does a half-gauge tube (every other needle, on both beds); a
+    full-gauge tube knits its other side there: a two-bed backing on it is E719, at the
+    `backing` statement (a tube's colourwork floats: fair isle, or `backing float`). On a
+    half-gauge tube the band must also be unshaped (E719 too): a tube's shaping moves
+    loops around the whole round between its slices, across the back layer's needles."""
     g, backing, where = run.g, run.backing, run.backing_origin
     if backing is None or where is None or g.n_stitches == 0:
         return
-    on_tube = two_bed(backing) & g.course_circular[g.course]
     _check_intarsia(run)
-    for k in np.unique(where[on_tube]).tolist():
-        sel = on_tube & (where == k)
-        c = int(g.course[np.argmax(sel)])
-        node = g.node_names[int(g.course_node[c])]
-        kind = BACKINGS[int(backing[np.argmax(sel)])]
-        run.diags.error(
-            "E719",
-            f"a `{kind}` backing knits on the needles behind the fabric, but `{node}` is a "
-            "tube: its other side is knitted there",
-            run.spans[k],
-            hint="jacquard is knitted on sheets (thesis ch. 6.9.5); a tube's colourwork "
-            "floats behind its stitches: fair isle, or `backing float`",
-        )
+    tube = two_bed(backing) & g.course_circular[g.course]
+    if not tube.any():
+        return
+    kids = (g.wale_next >= 0).sum(axis=1)
+    only = np.maximum(g.wale_next.max(axis=1), 0)
+    straight = (kids == 1) & ((g.wale_prev[only] >= 0).sum(axis=1) == 1)
+    bent = np.zeros(g.n_courses, bool)
+    bent[g.course[~straight & (kids > 0)]] = True  # (a last course has no wales to bend)
+    full = g.course_gauge[g.course] == 1
+    for bad, why, hint in (
+        (
+            tube & full,
+            "`{node}` is a full-gauge tube: its other side is knitted there",
+            "knit `{node}` in half gauge (`gauge: half`), which leaves the needles behind "
+            "both sides free, or let its yarns float (fair isle, `backing float`)",
+        ),
+        (
+            tube & ~full & bent[g.course],
+            "`{node}` is shaped in the band, and a tube's shaping moves its loops across "
+            "the back layer's needles",
+            "keep the tube's increases and decreases out of the jacquard band, or let its "
+            "yarns float (fair isle, `backing float`)",
+        ),
+    ):
+        for k in np.unique(where[bad]).tolist():
+            sel = bad & (where == k)
+            c = int(g.course[np.argmax(sel)])
+            node = g.node_names[int(g.course_node[c])]
+            kind = BACKINGS[int(backing[np.argmax(sel)])]
+            run.diags.error(
+                "E719",
+                f"a `{kind}` backing knits on the needles behind the fabric, but "
+                + why.format(node=node),
+                run.spans[k],
+                hint=hint.format(node=node),
+            )
 
 
 def _check_intarsia(run: _Run) -> None:
