@@ -185,12 +185,16 @@ def expect(result: Result, fab: Fabric) -> Expected:
     cast_off: set[int] = set()
     caught: set[int] = set()  # a fair isle yarn's tucks on its float (`float_catch`)
     backing: dict[int, int] = {}  # a jacquard backing's loops -> the stitch they are behind
+    plated: dict[int, frozenset[int]] = {}  # a plated stitch -> its loops, one per yarn
     for k, op in enumerate(prog.ops):
         if op.kind == "miss" and op.phase == "action" and op.stitch >= 0:
             missed.add(op.stitch)
         if op.forms_loop and k in by_op:
             if op.phase == "action" and op.stitch >= 0:
                 loop[op.stitch] = by_op[k][-1]
+                if len(op.carriers) > 1:  # plated: its loop is the face yarn's, the first
+                    loop[op.stitch] = by_op[k][0]
+                    plated[op.stitch] = frozenset(by_op[k])
                 (tucked.add if op.kind == "tuck" else tucked.discard)(op.stitch)
                 (splits.add if op.kind == "split" else splits.discard)(op.stitch)
             elif op.phase == "cast_on":
@@ -238,10 +242,10 @@ def expect(result: Result, fab: Fabric) -> Expected:
             # the needle pulls through both, which that stitch's own check sees
             tuck = instr == T or (user and s in tucked)
             if tuck and not got and not _kickback(g, s, parents, loop, stands, fab):
-                stands[s] = frozenset({lp}) | below
+                stands[s] = plated.get(s, frozenset({lp})) | below
                 out.realized += [(p, s) for p in parents]
                 continue
-            stands[s] = frozenset({lp})
+            stands[s] = plated.get(s, frozenset({lp}))  # (a plated stitch: a loop per yarn)
             if not parents:
                 if got - cast_on:
                     bad.append(

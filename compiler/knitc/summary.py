@@ -94,7 +94,10 @@ def summary_line(result: Result, output: str) -> str:
             # length of yarn with two ends
             ins = yarns
             if result.program is not None:
-                ins = sum(op.kind in ("in", "inhook") for op in result.program.ops)
+                # (a carrier set brought in together is a yarn per carrier: plating)
+                ins = sum(
+                    len(op.carriers) for op in result.program.ops if op.kind in ("in", "inhook")
+                )
             parts[-1] = f"{len(used)} yarns ({', '.join(used)}), {2 * ins} ends to weave in"
     if result.program is not None:
         w = workload(result.program)

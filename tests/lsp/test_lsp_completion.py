@@ -215,7 +215,7 @@ async def test_yarns_after_knit_and_their_properties(session: Session):
     text2 = "yarn red {\n  carrier: 5\n  \n}\n"
     session.replace_all(uri, text2)
     props = await complete(session, uri, (2, 2))
-    assert labels(props) == ["carry_up", "tuck_every", "colour"]  # `carrier` is set
+    assert labels(props) == ["carry_up", "tuck_every", "plating", "colour"]  # `carrier` is set
     carry = by_label(props, "carry_up")
     assert (
         carry.kind == types.CompletionItemKind.Property and edit_of(carry).new_text == "carry_up: "
@@ -291,9 +291,15 @@ def test_yarn_declarations_and_knit_statements():
         "carrier: ",
         "carry_up: ",
         "tuck_every: ",
+        "plating: ",
         "colour: ",
     ]
-    assert inserts_at("yarn red { carrier: 5, c| }") == ["carry_up: ", "tuck_every: ", "colour: "]
+    assert inserts_at("yarn red { carrier: 5, c| }") == [
+        "carry_up: ",
+        "tuck_every: ",
+        "plating: ",
+        "colour: ",
+    ]
     assert "#n" in inserts_at("param n = 4\nyarn red { carrier: | }")
     layer = "tube a { length: 4, width: 4 }\npattern a {\n  |\n}"
     assert {"set", "use", "knit", "apply"} <= set(inserts_at(layer))

@@ -100,6 +100,10 @@ class CodegenOptions:
     """How many courses each yarn may rest at the side (`yarn { carry_up }`)."""
     yarn_tuck_every: Sequence[int] = ()
     """Each yarn's float catching in fair isle (`yarn { tuck_every }`; 0: none)."""
+    yarn_plating: Sequence[int | None] = ()
+    """Each yarn's plating carrier (`yarn { plating }`; None: none), knitted with it."""
+    yarn_spans: Sequence[Span | None] = ()
+    """Each yarn's declaration (None: `main` undeclared), where its hazards are reported."""
 
     def cast_on_for(self, names: tuple[str, ...]) -> str:
         return next(
@@ -134,6 +138,8 @@ def options_from_skeleton(skel: sk.Skeleton) -> CodegenOptions:
         yarn_carriers=tuple(y.carrier for y in skel.yarn_list),
         yarn_carry_up=tuple(y.carry_up for y in skel.yarn_list),
         yarn_tuck_every=tuple(y.tuck_every for y in skel.yarn_list),
+        yarn_plating=tuple(y.plating for y in skel.yarn_list),
+        yarn_spans=tuple(y.span for y in skel.yarn_list),
     )
 
 
@@ -226,6 +232,9 @@ class _Gen:
     backed_list: list[bool] = field(default_factory=list)
     kid_list: list[int] = field(default_factory=list)
     """`backed` and each stitch's child (or -1) as lists, for per-loop look-ups."""
+    taken: list[tuple[int, int, int]] = field(default_factory=list)
+    """(op index, carrier, design yarn): a carrier taken for a yarn from that op on
+    (`_take_carrier`), so `_plate` knows whose each carrier's ops are."""
     catch: list[Pos] = field(default_factory=list)
     """The catching tucks of the yarn start being knitted (a cast-on's, or a jacquard yarn's
     brought in for its pass, `_back_carrier`): dropped once a pass holds the yarn."""
@@ -327,6 +336,7 @@ def generate(
     )
     try:
         _run(gen)
+        _plate(gen)
     except Unsupported as exc:
         diags.error(
             "E602",
@@ -350,6 +360,7 @@ def generate(
             hint="knit this node in half gauge (`gauge: half`) to leave the "
             "facing needles empty for reverse stitches",
         )
+    _warn_plated_decreases(gen)
     for node, n in sorted(gen.split_fallbacks.items()):
         ids = np.nonzero(g.node == node)[0]
         diags.warning(
@@ -362,6 +373,93 @@ def generate(
             "or `increase: kickback`",
         )
     return prog
+
+
+def _warn_plated_decreases(gen: _Gen) -> None:
+    """W604 at a plated yarn's declaration: a decrease stacks two of its stitches on one
+    needle, each a loop of both yarns, four loops of yarn that the knit above draws
+    through at once (the independent machine counts them against its four-loop limit)."""
+    g, opts = gen.g, gen.opts
+    plated = [i for i, p in enumerate(opts.yarn_plating) if p is not None]
+    if not plated or g.yarn is None:
+        return
+    dec = np.nonzero((g.wale_prev >= 0).sum(axis=1) == 2)[0]
+    if dec.size == 0:
+        return
+    ys = g.yarn[g.wale_prev[dec, 0]]
+    for y in plated:
+        n = int((ys == y).sum())
+        if n:
+            gen.diags.warning(
+                "W604",
+                f"{n} decrease(s) stack two plated stitches of yarn `{g.yarn_names[y]}` on one "
+                "needle: four loops of yarn",
+                opts.yarn_spans[y] if y < len(opts.yarn_spans) else None,
+                hint="keep a plated yarn to unshaped fabric, or shape where another yarn knits",
+            )
+
+
+def _plate(gen: _Gen) -> None:
+    """A plated yarn's ops (`yarn { plating }`) with its plating carrier after its own in
+    the carrier set (`knit + f5 5 6`: its yarn on the face, the plating yarn behind). Made
+    on the finished program, from the log of which yarn took which carrier when.
+
+    The inserting hook holds one yarn: a yarn started on the hook makes its catching tucks
+    and its cast-on alone, and its plating yarn comes in (`in`) at its first knit, onto
+    loops that hold it (a `miss` first parks it there: a carrier brought in is first used
+    in the set it came in with). Any other yarn comes in with its plating (`in 5 6`). The bind-off is knitted by the face yarn alone: each chain stitch draws the
+    two yarns' loops into one, so the chain moves one loop onto the next needle's two
+    (a plated chain would stack four). Before the yarn's `outhook` the plating yarn goes
+    out (`out`)."""
+    plating = gen.opts.yarn_plating
+    if not any(p is not None for p in plating):
+        return
+    prog = gen.bed.prog
+    owner: dict[int, int] = {}  # carrier -> the design yarn holding it
+    hooked: set[int] = set()  # carriers started on the hook: their plating is not in yet
+    log = iter(sorted(gen.taken))
+    nxt = next(log, None)
+
+    def partner(c: int) -> int | None:
+        y = owner.get(c)
+        return plating[y] if y is not None and y < len(plating) else None
+
+    out: list = []
+    for i, op in enumerate(prog.ops):
+        while nxt is not None and nxt[0] <= i:
+            owner[nxt[1]] = nxt[2]
+            nxt = next(log, None)
+        cs = op.carriers
+        pairs = [(c, partner(c)) for c in cs]
+        if not any(p is not None for _, p in pairs):
+            out.append(op)
+            continue
+        kind = op.kind
+        ps = tuple(p for _, p in pairs if p is not None)
+        if kind == "inhook":
+            hooked.update(cs)
+            out.append(op)
+        elif kind == "releasehook":
+            out.append(op)
+        elif kind == "in":
+            out.append(op._replace(carriers=cs + ps))
+        elif kind in ("outhook", "out"):
+            out += [op._replace(kind="out", carriers=ps), op]
+        elif op.phase == "cast_off":
+            out.append(op)
+        else:
+            if kind == "knit" and hooked & set(cs):  # the first knit: the plating comes in,
+                # its first use alone (a miss that parks it where the knit starts), as a
+                # carrier brought in must first be used in the set it came in with
+                ready = tuple(p for c, p in pairs if p is not None and c in hooked)
+                out.append(op._replace(kind="in", carriers=ready, needle=None, dir=0))
+                out.append(op._replace(kind="miss", dir=-op.dir, carriers=ready, stitch=-1))
+                hooked.difference_update(cs)
+            both: list[int] = []
+            for c, p in pairs:
+                both += [c] if p is None or c in hooked else [c, p]
+            out.append(op._replace(carriers=tuple(both)))
+    prog.ops[:] = out
 
 
 def _node_courses(g: StitchGraph) -> np.ndarray:
@@ -382,7 +480,9 @@ def _run(gen: _Gen) -> None:
     the shaping pass puts the loops where its layout wants them; a course's cast-on comes
     with its first part and its cast-off after its last."""
     g, t = gen.g, gen.t
-    free = gen.free = list(gen.carriers) + [c for c in range(1, 11) if c not in gen.carriers]
+    plates = {c for c in gen.opts.yarn_plating if c is not None}  # (no strand's own)
+    every = range(1, gen.bed.prog.machine.carriers + 1)
+    free = gen.free = list(dict.fromkeys(c for c in (*gen.carriers, *every) if c not in plates))
     course_of_visit = g.course[t.stitch]
     course_cuts = np.nonzero(np.diff(course_of_visit) != 0)[0] + 1
     slices = gen.sched.slices
@@ -484,14 +584,17 @@ def _take_carrier(gen: _Gen, free: list[int], yarn: int) -> int:
     want = asked[yarn] if 0 < yarn < len(asked) and gen.g.colourwork else None
     if want is not None and want in free:
         free.remove(want)
+        gen.taken.append((len(gen.bed.prog.ops), want, yarn))
         return want
     reserved = {c for i, c in enumerate(asked) if c is not None and i != yarn and i > 0}
     for i, c in enumerate(free):
         if c not in reserved:
+            gen.taken.append((len(gen.bed.prog.ops), c, yarn))
             return free.pop(i)
+    n = gen.bed.prog.machine.carriers
     raise Unsupported(
-        "more than 10 yarns would be in use at once",
-        hint="a machine has 10 carriers: let yarns rest less before they are taken out "
+        f"more than {n} yarns would be in use at once",
+        hint=f"the machine has {n} carriers: let yarns rest less before they are taken out "
         "(`yarn { carry_up: ... }`), or use fewer yarns in the same courses",
     )
 

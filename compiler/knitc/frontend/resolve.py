@@ -41,6 +41,10 @@ _HEX_COLOUR = re.compile(r"#[0-9a-fA-F]{6}")
 """A yarn's `colour`."""
 
 
+_PLATING = " (plating)"
+"""Marks a carrier taken by a yarn's plating in `_yarns`' carrier owners."""
+
+
 class _Resolver:
     def __init__(
         self,
@@ -577,17 +581,43 @@ class _Resolver:
             assert isinstance(carry, int)
             first = owner.get(carrier) if carrier is not None else None
             if first is not None and decl is not None:
-                held = decls.get(first)
+                plater = first[: -len(_PLATING)] if first.endswith(_PLATING) else None
+                held = decls.get(plater or first)
                 self.diags.error(
                     "E321",
-                    f"yarns `{first}` and `{name}` both use carrier {carrier}",
+                    f"yarn `{plater}`'s plating and yarn `{name}` both use carrier {carrier}"
+                    if plater
+                    else f"yarns `{first}` and `{name}` both use carrier {carrier}",
                     next(p.span for p in decl.props if p.name.name == "carrier"),
-                    notes=[Note(f"`{first}` declared here", held.name.span)] if held else [],
+                    notes=[Note(f"`{plater or first}` declared here", held.name.span)]
+                    if held
+                    else [],
                     hint="a carrier holds one yarn: give each yarn its own carrier"
                     + ("" if held else " (`main` takes the machine's first carrier)"),
                 )
             if carrier is not None:
                 owner.setdefault(carrier, name)
+            plating = values.get("plating") or None  # (0: none)
+            assert plating is None or isinstance(plating, int)
+            if plating is not None and decl is not None:
+                first = owner.get(plating)
+                if first is not None:
+                    plater = first[: -len(_PLATING)] if first.endswith(_PLATING) else None
+                    held = decls.get(plater or first)
+                    self.diags.error(
+                        "E321",
+                        f"yarn `{name}`'s plating and "
+                        + (f"yarn `{plater}`'s plating" if plater else f"yarn `{first}`")
+                        + f" both use carrier {plating}",
+                        next(p.span for p in decl.props if p.name.name == "plating"),
+                        notes=[Note(f"`{plater or first}` declared here", held.name.span)]
+                        if held
+                        else [],
+                        hint="a plating yarn needs a carrier of its own, which no other yarn uses",
+                    )
+                    plating = None
+                else:
+                    owner[plating] = name + _PLATING
             tuck = values.get("tuck_every", 0)
             assert isinstance(tuck, int)
             colour = str(values.get("colour", ""))
@@ -601,7 +631,7 @@ class _Resolver:
                 )
                 colour = ""
             out[name] = sk.Yarn(
-                name, carrier, carry, decl.span if decl else None, tuck, colour.lower()
+                name, carrier, carry, decl.span if decl else None, tuck, colour.lower(), plating
             )
         return out
 

@@ -137,6 +137,14 @@ YARN_PROPS: dict[str, PropSpec] = {
         doc="in fair isle, a float of the yarn is caught by a tuck every this many needles "
         "(0: never)",
     ),
+    "plating": PropSpec(
+        "int",
+        0,
+        min=0,
+        max=10,
+        doc="the carrier of a second yarn knitted together with this one, stitch for stitch "
+        "(plating: both carriers in one carrier set); this yarn shows on the face (0: none)",
+    ),
     "colour": PropSpec(
         "string",
         "",
@@ -276,6 +284,8 @@ class Yarn:
     tuck_every: int = 0
     colour: str = ""
     """"#rrggbb", or "" (none): what a colour image's pixels are matched to."""
+    plating: int | None = None
+    """The carrier of the yarn knitted together with this one (`plating`), or None."""
 
 
 @dataclass
@@ -680,6 +690,7 @@ def to_json(skel: Skeleton) -> dict[str, Any]:
                         "carry_up": y.carry_up,
                         "tuck_every": y.tuck_every,
                         **({"colour": y.colour} if y.colour else {}),
+                        **({"plating": y.plating} if y.plating is not None else {}),
                     }
                     for y in skel.yarn_list
                 ]

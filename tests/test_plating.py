@@ -1,0 +1,86 @@
+"""Plating: `yarn red { carrier: 5, plating: 6 }` knits a second yarn together with red in
+every stitch, both carriers in one carrier set (thesis ch. 3.1.6).
+
+Designs on a sheet and a tube (with stripes and a fair isle band of plated and unplated
+yarns) run clean on the independent machine, which makes a loop per yarn of a plated
+stitch; the fabric check holds each stitch's loops, the face yarn's first, to the design;
+and the DAT writer takes them (a carrier brought in is first used in the set it came in
+with).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from fabric import assert_knits_as_designed
+from knitc.backends.dat_format import decode, encode, rows
+from knitc.backends.dat_write import to_dat
+from knitc.driver import compile_source
+from knitc.summary import summary_line
+
+DESIGNS = {
+    "sheet": """
+yarn main { carrier: 3, plating: 4 }
+yarn red { carrier: 5, plating: 6 }
+sheet s { length: 10, width: 8 }
+pattern s {
+  knit red where courses(3:5)
+}
+""",
+    "tube": """
+// stripes of a plated yarn and a fair isle band of an unplated one
+yarn main { carrier: 3, plating: 4 }
+yarn red { carrier: 5, plating: 6 }
+yarn navy { carrier: 7 }
+tube t { length: 16, width: 8 }
+pattern t {
+  knit red where courses(3:5)
+  knit navy where courses(8:10) and filter(wale % 3 == 0)
+}
+""",
+}
+
+
+def _compiled(name: str):
+    r = compile_source(DESIGNS[name], f"{name}.knit", until="machine")
+    assert r.program is not None and not r.diagnostics.has_errors, r.diagnostics.render()
+    assert not r.diagnostics.warning_count, r.diagnostics.render()
+    return r
+
+
+def test_plated_designs_knit_as_designed_on_the_independent_machine():
+    assert_knits_as_designed([_compiled(n) for n in DESIGNS], names=list(DESIGNS))
+
+
+@pytest.mark.parametrize("name", sorted(DESIGNS))
+def test_plated_designs_round_trip_through_dat(name):
+    image = to_dat(_compiled(name).program)
+    assert rows(decode(encode(image))) == rows(image)
+
+
+def test_every_stitch_of_a_plated_yarn_is_knitted_with_both_carriers():
+    r = _compiled("tube")
+    g = r.graph
+    assert g is not None and g.yarn is not None
+    plating = {0: 4, 1: 6}  # main, red (navy, 2, is not plated)
+    for op in r.program.ops:
+        if op.phase != "action" or op.stitch < 0 or op.kind != "knit":
+            continue
+        y = int(g.yarn[op.stitch])
+        if y in plating and op.carriers[0] in (3, 5):  # (navy's own passes are its own)
+            assert op.carriers == (op.carriers[0], plating[y]), op
+    ins = [op.carriers for op in r.program.ops if op.kind == "in"]
+    assert (5, 6) in ins  # a yarn brought in with `in` comes in with its plating
+
+
+def test_the_summary_counts_both_yarns_of_a_plated_pair():
+    # main on the hook (3), its plating at its first knit (4), red with its plating (5 6):
+    # four lengths of yarn, eight ends
+    assert "8 ends to weave in" in summary_line(_compiled("sheet"), "s.k")
+
+
+def test_a_decrease_of_plated_stitches_is_a_warning_at_the_yarn():
+    text = "yarn main { carrier: 3, plating: 4 }\nsheet s { length: 12, width: [0: 10, 1: 7] }\n"
+    r = compile_source(text, "p.knit", until="machine")
+    w = [d for d in r.diagnostics if d.code == "W604"]
+    assert len(w) == 1 and w[0].span is not None and w[0].span.line == 1
