@@ -68,7 +68,7 @@ from knitc.codegen.machine import MachineProgram
 from knitc.driver import Result
 from knitc.patterning.instructions import CROSSES, MOVES, cables, neighbour, right_left
 from knitc.scheduling import schedule as sc
-from knitc.shaping.stitch_graph import INSTRUCTIONS, INTARSIA, StitchGraph, two_bed
+from knitc.shaping.stitch_graph import INSTRUCTIONS, StitchGraph, two_bed
 
 P, T, M = (INSTRUCTIONS.index(x) for x in "PTM")
 REVERSED = {P} | {k for k, name in enumerate(INSTRUCTIONS) if name[0] == "B"}
@@ -429,12 +429,12 @@ def _walls(g: StitchGraph, fab: Fabric, ex: Expected) -> list[Mismatch]:
     """In an intarsia course, two neighbouring stitches of different yarns are knitted by
     different yarns of the fabric: they must be linked, else the wall between their
     regions is a slit. Linked: one of the two stitches' loops, or the loop above it, was
-    pulled through a loop of the other's yarn (the tuck join)."""
+    pulled through a loop of the other's yarn (the tuck join), or so was the next stitch
+    of that side's yarn (a join one needle in, past a needle holding two loops)."""
     out: list[Mismatch] = []
     if g.backing is None or g.yarn is None:
         return out
-    intarsia = np.zeros(g.n_courses, bool)
-    intarsia[g.course[g.backing == INTARSIA]] = True
+    intarsia = g.intarsia_courses()
 
     def pulled(s: int) -> set[int | None]:
         """The fabric yarns of the loops stitch s's loop and its child's were pulled through."""
@@ -451,6 +451,11 @@ def _walls(g: StitchGraph, fab: Fabric, ex: Expected) -> list[Mismatch]:
                 continue
             a, b = fab.yarn[ex.loop[s]], fab.yarn[ex.loop[s2]]
             if a == b or a in pulled(s2) or b in pulled(s):
+                continue
+            s3, s0 = int(g.cnext[s2]), int(g.cprev[s])
+            if (s3 >= 0 and g.yarn[s3] == g.yarn[s2] and a in pulled(s3)) or (
+                s0 >= 0 and g.yarn[s0] == g.yarn[s] and b in pulled(s0)
+            ):
                 continue
             out.append(
                 Mismatch(
@@ -485,10 +490,12 @@ def _backing(g: StitchGraph, fab: Fabric, ex: Expected) -> list[Mismatch]:
         )
 
     jacquard = two_bed(g.backing)
+    backed = np.zeros(g.n_courses, bool)  # a jacquard course that keeps its back layer
     for c in np.unique(g.course[jacquard]).tolist():
         ids = g.course_ids(c).tolist()
         if not all(straight(s) for s in ids):
             continue  # (the back layer closes a course before the fabric is shaped)
+        backed[c] = True
         for s in ids:
             if not jacquard[s] or s in behind:
                 continue
@@ -511,6 +518,38 @@ def _backing(g: StitchGraph, fab: Fabric, ex: Expected) -> list[Mismatch]:
                     s,
                     f"the backing loop {x} behind {describe(g, s)} has nothing pulled "
                     "through it and is not closed onto the front",
+                )
+            )
+            continue
+        # the back layer goes on where the stitch above has a back loop of its own: the
+        # back knit there pulls this one through; else it is closed onto the front, where
+        # the stitch above pulls it through with the stitch's own loop
+        k = int(g.wale_next[s].max())
+        goes_on = k >= 0 and bool(jacquard[k]) and bool(backed[int(g.course[s])])
+        goes_on = goes_on and bool(backed[int(g.course[k])])
+        kids = set(fab.children[x])
+        if goes_on and not kids & ex.backing.keys():
+            out.append(
+                Mismatch(
+                    "backing",
+                    s,
+                    f"the backing loop {x} behind {describe(g, s)} is closed onto the front "
+                    "though the back layer goes on above it",
+                )
+            )
+        elif (  # (or a later back knit of the course pulls it: horizontal stripes)
+            not goes_on
+            and k >= 0
+            and k in ex.loop
+            and not kids & ex.stands[k]
+            and not kids & ex.backing.keys()
+        ):
+            out.append(
+                Mismatch(
+                    "backing",
+                    s,
+                    f"the backing loop {x} behind {describe(g, s)} ends the back layer but "
+                    f"the stitch above, {k}, does not knit it in",
                 )
             )
     return out[:50]
@@ -601,6 +640,7 @@ def _rings(g: StitchGraph, fab: Fabric, ex: Expected) -> list[Mismatch]:
     several yarns (fair isle) is one ring per yarn: each yarn's loops on one yarn of the
     fabric, in course order."""
     out = []
+    band = g.intarsia_courses()
     for c in np.nonzero(g.course_circular)[0].tolist():
         ids = g.course_ids(c).tolist()
         own = [ex.loop[s] for s in ids if s in ex.loop]
@@ -608,7 +648,7 @@ def _rings(g: StitchGraph, fab: Fabric, ex: Expected) -> list[Mismatch]:
             continue  # missed stitches (and their reports) make no ring of their own
         first = ids[0]
         assert g.yarn is not None
-        if g.backing is not None and bool((g.backing[ids] == INTARSIA).any()):
+        if band[c]:
             continue  # an intarsia round is a ring of regions, each its own yarn (`_walls`)
         design = g.yarn[ids].tolist()
         if len(set(design)) > 1:  # fair isle: each yarn's own stitches, in course order

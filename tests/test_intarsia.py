@@ -63,8 +63,13 @@ def test_regions_follow_the_yarns(text):
     g = r.graph
     assert g is not None and g.backing is not None and g.yarn is not None, text
     reg = regions(g)
-    band = np.zeros(g.n_courses, bool)
-    band[g.course[g.backing == INTARSIA]] = True
+    band = g.intarsia_courses()  # (the selected courses of more than one yarn)
+    selected = np.zeros(g.n_courses, bool)
+    selected[g.course[g.backing == INTARSIA]] = True
+    first = np.repeat(g.yarn[g.course_start], g.course_len)
+    several = np.zeros(g.n_courses, bool)
+    several[g.course[g.yarn != first]] = True
+    assert (band == (selected & several)).all()
     on = band[g.course]
     assert ((reg >= 0) == on).all()
     for k in np.unique(reg[on]).tolist():  # a region is of one yarn
@@ -153,8 +158,9 @@ def test_each_region_has_its_own_carrier_in_once_and_out_once():
     assert len(joins) == 2 * 8  # two walls, one tuck join each, eight courses
 
 
-def test_no_yarn_floats_across_another_region():
-    """Every knit of an intarsia course's region carrier is on its own region's needles."""
+def test_each_region_carrier_knits_only_its_own_region():
+    """Every knit of an intarsia course's region carrier is on its own region's needles
+    (that no yarn floats far is the designs' test: they compile without W803)."""
     r = _compiled("sheet-diamond")
     g = r.graph
     reg = regions(g)
@@ -163,6 +169,26 @@ def test_no_yarn_floats_across_another_region():
         if op.kind == "knit" and op.stitch >= 0 and reg[op.stitch] >= 0:
             by_carrier.setdefault(op.carriers[0], set()).add(int(reg[op.stitch]))
     assert all(len(v) == 1 for v in by_carrier.values()), by_carrier
+
+
+def test_an_intarsia_course_of_one_yarn_is_knitted_as_any_course():
+    text = "sheet s { length: 10, width: 8 }\npattern s {\n  intarsia where courses(2:5)\n}\n"
+    r = compile_source(text, "one.knit", until="machine")
+    assert r.program is not None and not r.diagnostics.warning_count, r.diagnostics.render()
+    assert r.graph is not None and not r.graph.intarsia_courses().any()
+    assert sum(op.kind in ("in", "inhook") for op in r.program.ops) == 1
+
+
+def test_a_plated_yarn_in_two_regions_at_once_is_an_error_at_the_yarn():
+    text = (
+        "yarn red { carrier: 5, plating: 6 }\nsheet s { length: 10, width: 12 }\n"
+        "pattern s {\n  knit red where courses(2:5) and (wales(1:2) or wales(7:8))\n"
+        "  intarsia where courses(2:5)\n}\n"
+    )
+    r = compile_source(text, "p.knit", until="machine")
+    errors = [d for d in r.diagnostics if d.is_error]
+    assert [d.code for d in errors] == ["E602"] and "plated" in errors[0].message
+    assert errors[0].span is not None and errors[0].span.line == 1
 
 
 @settings(max_examples=4, derandomize=True, deadline=None)

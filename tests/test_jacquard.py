@@ -170,15 +170,35 @@ def test_a_backing_knits_behind_the_front_and_binds_the_floats():
 
 def test_the_back_layer_is_closed_onto_the_front_where_the_region_ends():
     r = _compiled("birdseye-2")
-    g = r.graph
     ops = r.program.ops
     closing = [op for op in ops if op.phase == "backing" and op.kind == "xfer"]
     assert closing and all(op.needle.bed == "b" and op.needle2.bed == "f" for op in closing)
-    # nothing is left on the back bed: every backing loop was closed onto the front
-    last = max(i for i, op in enumerate(ops) if op.phase == "backing")
-    backs_after = [op for op in ops[last + 1 :] if op.phase == "backing"]
-    assert not backs_after
-    assert g is not None and g.backing is not None and two_bed(g.backing).sum() > 0
+    # nothing is left on the back bed: every back needle's last backing op moves its loop
+    # onto the front
+    last: dict[int, str] = {}
+    for op in ops:
+        if op.phase == "backing" and op.needle is not None and op.needle.bed == "b":
+            last[op.needle.index] = op.kind
+    assert last and set(last.values()) == {"xfer"}
+
+
+def test_birdseye_gives_the_back_needles_to_the_yarns_in_turn():
+    """The back knits of the birdseye design, against the rule written out here: the
+    region's yarns (main, red: carriers 3 and 5) take the back needles in turn along the
+    course, one needle further each course of the node."""
+    r = _compiled("birdseye-2")
+    g = r.graph
+    assert g is not None
+    carriers = (3, 5)
+    first = int(np.argmax(g.course_node == g.course_node[0]))
+    seen = 0
+    for op in r.program.ops:
+        if op.phase != "backing" or op.kind not in ("knit", "tuck"):
+            continue
+        y = int(g.course[op.stitch]) - first
+        assert op.carriers[0] == carriers[(op.needle.index + y) % 2], op
+        seen += 1
+    assert seen > 50
 
 
 def test_the_stitch_graph_dump_names_the_backing():

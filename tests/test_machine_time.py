@@ -11,14 +11,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from knitc.backends.dat_write import SOFT_MISS, XFER_BF, XFER_FB, to_dat
 from knitc.codegen.machine import estimate_passes
 from knitc.driver import compile_file, compile_source
 from knitc.shaping.intarsia import regions as intarsia_regions
-from knitc.shaping.stitch_graph import INTARSIA
 
 REPO = Path(__file__).resolve().parent.parent
 DESIGNS = sorted((REPO / "examples").glob("*.knit")) + sorted(
@@ -61,9 +59,7 @@ def test_a_design_costs_few_rows_beyond_its_passes(path):
     g = r.graph
     fair = 0
     if g is not None and g.colourwork and g.yarn is not None:
-        band = np.zeros(g.n_courses, bool)
-        if g.backing is not None:
-            band[g.course[g.backing == INTARSIA]] = True
+        band = g.intarsia_courses()
         regions = intarsia_regions(g) if band.any() else None
         for c in range(g.n_courses):
             ids = g.course_ids(c)

@@ -407,22 +407,39 @@ def _plate(gen: _Gen) -> None:
     The inserting hook holds one yarn: a yarn started on the hook makes its catching tucks
     and its cast-on alone, and its plating yarn comes in (`in`) at its first knit, onto
     loops that hold it (a `miss` first parks it there: a carrier brought in is first used
-    in the set it came in with). Any other yarn comes in with its plating (`in 5 6`). The bind-off is knitted by the face yarn alone: each chain stitch draws the
-    two yarns' loops into one, so the chain moves one loop onto the next needle's two
-    (a plated chain would stack four). Before the yarn's `outhook` the plating yarn goes
-    out (`out`)."""
+    in the set it came in with). Any other yarn comes in with its plating (`in 5 6`).
+
+    The bind-off is knitted by the face yarn alone: each chain stitch draws the two yarns'
+    loops into one, so the chain moves one loop onto the next needle's two (a plated chain
+    would stack four); so is a jacquard back layer, which closes onto the plated stitches
+    in front of it. Before the yarn's `outhook` the plating yarn goes out (`out`)."""
     plating = gen.opts.yarn_plating
     if not any(p is not None for p in plating):
         return
     prog = gen.bed.prog
     owner: dict[int, int] = {}  # carrier -> the design yarn holding it
     hooked: set[int] = set()  # carriers started on the hook: their plating is not in yet
+    plated: dict[int, int] = {}  # the design yarn -> its carrier whose plating is in
     log = iter(sorted(gen.taken))
     nxt = next(log, None)
 
     def partner(c: int) -> int | None:
         y = owner.get(c)
         return plating[y] if y is not None and y < len(plating) else None
+
+    def plating_in(c: int) -> None:
+        """The plating of carrier c comes in: its yarn's one plating carrier is taken."""
+        y = owner[c]
+        if plated.get(y, c) != c:
+            gen.where_span = gen.opts.yarn_spans[y] if y < len(gen.opts.yarn_spans) else None
+            raise Unsupported(
+                f"yarn `{gen.g.yarn_names[y]}` is plated and would knit with two carriers "
+                "at once (two intarsia regions, or two pieces side by side), but it has one "
+                "plating carrier",
+                hint="knit a plated yarn one piece and one region at a time, or declare a "
+                "second yarn with a plating of its own",
+            )
+        plated[y] = c
 
     out: list = []
     for i, op in enumerate(prog.ops):
@@ -435,22 +452,33 @@ def _plate(gen: _Gen) -> None:
             out.append(op)
             continue
         kind = op.kind
-        ps = tuple(p for _, p in pairs if p is not None)
         if kind == "inhook":
             hooked.update(cs)
             out.append(op)
         elif kind == "releasehook":
             out.append(op)
         elif kind == "in":
-            out.append(op._replace(carriers=cs + ps))
+            for c, p in pairs:
+                if p is not None:
+                    plating_in(c)
+            out.append(op._replace(carriers=cs + tuple(p for _, p in pairs if p is not None)))
         elif kind in ("outhook", "out"):
-            out += [op._replace(kind="out", carriers=ps), op]
-        elif op.phase == "cast_off":
+            gone = [(c, p) for c, p in pairs if p is not None and plated.get(owner[c]) == c]
+            if gone:  # (a plating that came in goes out with its yarn)
+                out.append(op._replace(kind="out", carriers=tuple(p for _, p in gone)))
+            for c, _ in gone:
+                del plated[owner[c]]
+            hooked.difference_update(cs)
+            out.append(op)
+        elif op.phase in ("cast_off", "backing"):  # (the face yarn alone: see above)
             out.append(op)
         else:
             if kind == "knit" and hooked & set(cs):  # the first knit: the plating comes in,
                 # its first use alone (a miss that parks it where the knit starts), as a
                 # carrier brought in must first be used in the set it came in with
+                firsts = [c for c, p in pairs if p is not None and c in hooked]
+                for c in firsts:
+                    plating_in(c)
                 ready = tuple(p for c, p in pairs if p is not None and c in hooked)
                 out.append(op._replace(kind="in", carriers=ready, needle=None, dir=0))
                 out.append(op._replace(kind="miss", dir=-op.dir, carriers=ready, stitch=-1))
@@ -1252,8 +1280,14 @@ def _intarsia_pass(gen: _Gen, chunk: np.ndarray) -> None:
             _yarn_spans(gen, ids),
         )
         if i + 1 < len(runs) or wrap:  # the tuck join onto the next region's first needle
-            nxt = int(stitches[runs[(i + 1) % len(runs)][0]])
-            _catch(gen, carrier, nxt, int(dirs[run[-1]]), first)
+            # (or its second, when a decrease or a closed backing left two loops on the
+            # first: a third would strain it)
+            ahead = runs[(i + 1) % len(runs)][:2].tolist()
+            for j in ahead:
+                nxt = int(stitches[j])
+                if gen.bed.loops.get(gen.positions[nxt], 0) <= 1:
+                    _catch(gen, carrier, nxt, int(dirs[run[-1]]), first)
+                    break
 
 
 def _end_regions(gen: _Gen, course: int) -> None:
@@ -1288,8 +1322,11 @@ def _jacquard_run(
     g = gen.g
     fronts = np.nonzero(sel)[0]
     behind = np.nonzero(back)[0]
-    left = dirs < 0
-    key = np.r_[2 * fronts + left[fronts], 2 * behind + ~left[behind]]
+    # the needle on the back bed sits right of its front one: going right the carriage
+    # meets the front bed's first, whichever of the two is the stitch's own
+    on_back = gen.knit_bed[stitches] == 1
+    behind_first = (dirs < 0) ^ on_back
+    key = np.r_[2 * fronts + behind_first[fronts], 2 * behind + ~behind_first[behind]]
     order = np.argsort(key, kind="stable")
     t = np.r_[fronts, behind][order]
     is_back = (np.arange(len(key)) >= len(fronts))[order]

@@ -31,6 +31,7 @@ from knitc.diagnostics import Diagnostics, Note
 from knitc.frontend import ast
 from knitc.frontend import skeleton as sk
 from knitc.lang.evaluate import EvalError, Evaluator, Value, Word
+from knitc.limits import MACHINE_CARRIERS
 from knitc.patterning import actions, drawing
 from knitc.patterning.query import (
     Coords,
@@ -214,10 +215,11 @@ def _check_intarsia(run: _Run) -> None:
     the loops below it and taken out under the loops above it, so an intarsia course that
     casts on or binds off stitches is E730."""
     g, backing, where = run.g, run.backing, run.backing_origin
-    assert backing is not None and where is not None
+    assert backing is not None and where is not None and run.yarn is not None
     mine = backing == INTARSIA
     if not mine.any():
         return
+    _check_intarsia_courses(run, mine)
     course = np.zeros(g.n_courses, bool)
     course[g.course[mine]] = True
     on = course[g.course]  # every stitch of an intarsia course
@@ -237,6 +239,47 @@ def _check_intarsia(run: _Run) -> None:
         hint="keep a course of one yarn below and above an intarsia band: its regions' "
         "yarns come in over the loops below and go out under the loops above",
     )
+
+
+def _check_intarsia_courses(run: _Run, mine: np.ndarray) -> None:
+    """A course is intarsia or jacquard, not both (E731: its regions' carriers would have
+    to knit a back layer they do not pass over); and an intarsia course has a carrier per
+    run of one yarn, no more runs than the machine's carriers beside the yarn resting at
+    the side (E732)."""
+    g, backing, where, yarn = run.g, run.backing, run.backing_origin, run.yarn
+    assert backing is not None and where is not None and yarn is not None
+    band = np.zeros(g.n_courses, bool)
+    band[g.course[mine]] = True
+    both = band[g.course] & two_bed(backing)
+    if both.any():
+        s = int(np.argmax(both))
+        c = int(g.course[s])
+        run.diags.error(
+            "E731",
+            f"course {c - _node_first_course(g, c)} of `{g.node_names[int(g.course_node[c])]}` "
+            "is both intarsia and jacquard",
+            run.spans[int(where[s])],
+            hint="a course is knitted one way: keep the `backing` and the `intarsia` "
+            "selections apart",
+        )
+    changes = np.zeros(g.n_courses, np.int64)
+    nxt = g.cnext
+    has = band[g.course] & (nxt >= 0)
+    np.add.at(changes, g.course[has], yarn[has] != yarn[nxt[has]])
+    runs = np.where(g.course_circular, np.maximum(changes, 1), changes + 1)
+    room = MACHINE_CARRIERS - 1
+    over = band & (runs > room)
+    if over.any():
+        c = int(np.argmax(over))
+        k = where[(g.course == c) & mine]
+        run.diags.error(
+            "E732",
+            f"course {c - _node_first_course(g, c)} of `{g.node_names[int(g.course_node[c])]}` "
+            f"has {int(runs[c])} intarsia regions side by side, each a carrier of its own, "
+            f"and the machine has {room} beside the yarn resting at the side",
+            run.spans[int(k[k >= 0][-1])],
+            hint="merge small regions of one yarn, or knit small motifs as fair isle",
+        )
 
 
 def _shown(v: object) -> str:

@@ -17,12 +17,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from knitc.shaping.stitch_graph import INTARSIA, StitchGraph
+from knitc.shaping.stitch_graph import StitchGraph
 
 
 def regions(g: StitchGraph) -> np.ndarray:
     """int32 per stitch: its intarsia region (0, 1, ... in order of first stitch), -1 for
-    stitches of courses that are not intarsia. A course is a contiguous id range in
+    stitches of courses that are not intarsia (`StitchGraph.intarsia_courses`). A course is a contiguous id range in
     knitting order, so a run is a range of ids of one yarn within one course."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
@@ -31,9 +31,7 @@ def regions(g: StitchGraph) -> np.ndarray:
     out = np.full(n, -1, np.int32)
     if g.backing is None or g.yarn is None or n == 0:
         return out
-    course = np.zeros(g.n_courses, bool)
-    course[g.course[g.backing == INTARSIA]] = True
-    on = course[g.course]
+    on = g.intarsia_courses()[g.course]
     ids = np.nonzero(on)[0]
     if ids.size == 0:
         return out

@@ -166,9 +166,23 @@ class StitchGraph:
                 out[c] = before if keep else int(np.argmax(counts))
             if self.course_len[c]:
                 last[node] = int(out[c])
-        if self.backing is not None and (self.backing == INTARSIA).any():
-            out[np.unique(self.course[self.backing == INTARSIA])] = len(self.yarn_names)
+        band = self.intarsia_courses()
+        if band.any():
+            out[band] = len(self.yarn_names)
         return out
+
+    def intarsia_courses(self) -> np.ndarray:
+        """bool per course: an intarsia course, one with a stitch an `intarsia` statement
+        selected and stitches of more than one yarn (on one yarn there is nothing for the
+        regions to keep apart: it is knitted as any course)."""
+        out = np.zeros(self.n_courses, bool)
+        if self.backing is None or self.yarn is None or self.n_stitches == 0:
+            return out
+        out[self.course[self.backing == INTARSIA]] = True
+        first = np.repeat(self.yarn[self.course_start], self.course_len)
+        several = np.zeros(self.n_courses, bool)
+        several[self.course[self.yarn != first]] = True
+        return out & several
 
     @property
     def n_stitches(self) -> int:
