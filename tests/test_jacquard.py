@@ -141,7 +141,9 @@ def test_jacquard_designs_knit_as_designed_on_the_independent_machine():
     assert_knits_as_designed(results, names=list(DESIGNS))
 
 
-@pytest.mark.parametrize("name", ["birdseye-2", "horizontal-3", "whole-sheet"])
+@pytest.mark.parametrize(
+    "name", ["birdseye-2", "horizontal-3", "whole-sheet", "half-tube-birdseye"]
+)
 def test_jacquard_designs_round_trip_through_dat(name):
     image = to_dat(_compiled(name).program)
     assert rows(decode(encode(image))) == rows(image)

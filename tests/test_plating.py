@@ -84,3 +84,65 @@ def test_a_decrease_of_plated_stitches_is_a_warning_at_the_yarn():
     r = compile_source(text, "p.knit", until="machine")
     w = [d for d in r.diagnostics if d.code == "W604"]
     assert len(w) == 1 and w[0].span is not None and w[0].span.line == 1
+
+
+# ---- inlay ------------------------------------------------------------------------------------
+
+INLAYS = {
+    "sheet-inlay": """
+// an elastic laid into a band of a sheet, held every third needle
+yarn elastic { carrier: 7, inlay: 3 }
+sheet s { length: 12, width: 10 }
+pattern s {
+  knit elastic where courses(2:6)
+}
+""",
+    "tube-inlay": """
+// an inlay in two bands of a striped tube, resting at the side between them
+yarn elastic { carrier: 7, inlay: 2 }
+yarn red { carrier: 5 }
+tube t { length: 12, width: 8 }
+pattern t {
+  knit red where courses(4:5)
+  knit elastic where courses(1:3) or courses(8:9)
+}
+""",
+}
+
+
+def _inlaid(name: str):
+    r = compile_source(INLAYS[name], f"{name}.knit", until="machine")
+    assert r.program is not None and not r.diagnostics.has_errors, r.diagnostics.render()
+    assert not r.diagnostics.warning_count, r.diagnostics.render()
+    return r
+
+
+def test_inlaid_designs_knit_as_designed_on_the_independent_machine():
+    assert_knits_as_designed([_inlaid(n) for n in INLAYS], names=list(INLAYS))
+
+
+@pytest.mark.parametrize("name", sorted(INLAYS))
+def test_inlaid_designs_round_trip_through_dat(name):
+    image = to_dat(_inlaid(name).program)
+    assert rows(decode(encode(image))) == rows(image)
+
+
+def test_an_inlay_yarn_only_tucks_every_n_needles_of_its_courses():
+    r = _inlaid("sheet-inlay")
+    g = r.graph
+    assert g is not None and g.inlay is not None
+    ops = [op for op in r.program.ops if 7 in op.carriers]
+    assert {op.kind for op in ops} <= {"in", "tuck", "miss", "outhook"}  # never a knit
+    tucks = [op for op in ops if op.kind == "tuck"]
+    assert tucks and all(op.phase == "float_catch" for op in tucks)
+    by_course: dict[int, list[int]] = {}
+    for op in tucks:
+        c = int(g.course[op.stitch]) if op.stitch >= 0 else -1
+        by_course.setdefault(c, []).append(op.needle.index)
+    assert sorted(by_course) == [2, 3, 4, 5, 6]
+    for needles in by_course.values():
+        gaps = {abs(b - a) for a, b in zip(needles, needles[1:], strict=False)}
+        assert gaps == {3}
+    # the stitches keep their own yarn: an inlay does not knit them
+    assert not g.yarn.any()
+    assert "2 yarns (elastic, main), 4 ends to weave in" in summary_line(r, "s.k")

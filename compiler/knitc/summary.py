@@ -87,9 +87,13 @@ def summary_line(result: Result, output: str) -> str:
         yarns = len(set(result.trace.yarn.tolist()))
         parts.append(f"{yarns} yarn{'s' * (yarns != 1)}")
         g = result.graph
-        if g is not None and g.colourwork:  # colour: say which, and the ends they leave
+        laid = g is not None and g.inlay is not None and bool(g.inlay.any())
+        if g is not None and (g.colourwork or laid):  # colour: which, and the ends they leave
             assert g.yarn is not None
-            used = sorted({g.yarn_names[y] for y in set(g.yarn.tolist())})
+            ys = set(g.yarn.tolist()) | (
+                set(g.inlay.tolist()) - {0} if g.inlay is not None else set()
+            )
+            used = sorted({g.yarn_names[y] for y in ys})
             # every yarn brought in (a strand of the trace, or a fair isle yarn) is a
             # length of yarn with two ends
             ins = yarns

@@ -215,7 +215,7 @@ async def test_yarns_after_knit_and_their_properties(session: Session):
     text2 = "yarn red {\n  carrier: 5\n  \n}\n"
     session.replace_all(uri, text2)
     props = await complete(session, uri, (2, 2))
-    assert labels(props) == ["carry_up", "tuck_every", "plating", "colour"]  # `carrier` is set
+    assert labels(props) == ["carry_up", "tuck_every", "plating", "inlay", "colour"]
     carry = by_label(props, "carry_up")
     assert (
         carry.kind == types.CompletionItemKind.Property and edit_of(carry).new_text == "carry_up: "
@@ -292,12 +292,14 @@ def test_yarn_declarations_and_knit_statements():
         "carry_up: ",
         "tuck_every: ",
         "plating: ",
+        "inlay: ",
         "colour: ",
     ]
     assert inserts_at("yarn red { carrier: 5, c| }") == [
         "carry_up: ",
         "tuck_every: ",
         "plating: ",
+        "inlay: ",
         "colour: ",
     ]
     assert "#n" in inserts_at("param n = 4\nyarn red { carrier: | }")

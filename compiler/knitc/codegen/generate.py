@@ -102,6 +102,8 @@ class CodegenOptions:
     """Each yarn's float catching in fair isle (`yarn { tuck_every }`; 0: none)."""
     yarn_plating: Sequence[int | None] = ()
     """Each yarn's plating carrier (`yarn { plating }`; None: none), knitted with it."""
+    yarn_inlay: Sequence[int] = ()
+    """Each yarn's inlay catching distance (`yarn { inlay }`; 0: a knitting yarn)."""
     yarn_spans: Sequence[Span | None] = ()
     """Each yarn's declaration (None: `main` undeclared), where its hazards are reported."""
 
@@ -139,6 +141,7 @@ def options_from_skeleton(skel: sk.Skeleton) -> CodegenOptions:
         yarn_carry_up=tuple(y.carry_up for y in skel.yarn_list),
         yarn_tuck_every=tuple(y.tuck_every for y in skel.yarn_list),
         yarn_plating=tuple(y.plating for y in skel.yarn_list),
+        yarn_inlay=tuple(y.inlay for y in skel.yarn_list),
         yarn_spans=tuple(y.span for y in skel.yarn_list),
     )
 
@@ -304,6 +307,11 @@ class _Gen:
                         if y != int(self.course_yarn[c]):
                             back.setdefault(y, set()).add(c)
             self.back_courses = {y: sorted(cs) for y, cs in back.items()}
+        if g.inlay is not None and g.inlay.any():  # an inlay yarn rests between its courses
+            laid = g.inlay > 0
+            for y in np.unique(g.inlay[laid]).tolist():
+                cs = set(np.unique(g.course[laid & (g.inlay == y)]).tolist())
+                self.back_courses[y] = sorted(cs | set(self.back_courses.get(y, [])))
 
     def pos(self, s: int) -> Pos:
         return self.positions[s]
@@ -568,6 +576,8 @@ def _run(gen: _Gen) -> None:
             primary.update(_shaping(gen, sub))
         with prog.code_pass("action"):
             _action_pass(gen, ctx, sub, primary)
+            if gen.g.inlay is not None:
+                _inlay_pass(gen, sub)
         # the yarn has caught on the first part's stitches: the catching tucks go before the
         # next slice's shaping can need their needles
         _drop_catch(gen)
@@ -609,7 +619,7 @@ def _take_carrier(gen: _Gen, free: list[int], yarn: int) -> int:
     a carrier of its own; the same carrier brought straight back in would drag its cut
     yarn across, as the independent machine sees it); another yarn comes back on its own."""
     asked = gen.opts.yarn_carriers
-    want = asked[yarn] if 0 < yarn < len(asked) and gen.g.colourwork else None
+    want = asked[yarn] if 0 < yarn < len(asked) else None
     if want is not None and want in free:
         free.remove(want)
         gen.taken.append((len(gen.bed.prog.ops), want, yarn))
@@ -1288,6 +1298,49 @@ def _intarsia_pass(gen: _Gen, chunk: np.ndarray) -> None:
                 if gen.bed.loops.get(gen.positions[nxt], 0) <= 1:
                     _catch(gen, carrier, nxt, int(dirs[run[-1]]), first)
                     break
+
+
+def _inlay_pass(gen: _Gen, chunk: np.ndarray) -> None:
+    """After a part of a course is knitted: each inlay yarn laid over some of its stitches
+    (`yarn { inlay: N }`, thesis ch. 3.1.6) makes a pass of its own in the course's
+    direction, not knitting, caught by a tuck on every N-th of those stitches' new loops
+    (the course above knits each tuck in with the stitch's loop): the yarn lies in the
+    fabric, held at every N needles. It comes in (`in`) with its first tuck, on a loop,
+    and rests at the side between its courses as a fair isle yarn does."""
+    g = gen.g
+    assert g.inlay is not None
+    stitches = gen.t.stitch[chunk]
+    laid = g.inlay[stitches]
+    if not laid.any():
+        return
+    dirs = gen.dirs[chunk]
+    dirs = np.where(dirs == 0, 1, dirs)
+    every = gen.opts.yarn_inlay
+    origin = g.inlay_origin
+    for y in sorted(set(laid.tolist()) - {0}):
+        n = every[y] if y < len(every) and every[y] > 0 else 1
+        at = [
+            t
+            for t in np.nonzero(laid == y)[0].tolist()
+            if g.wale_next[stitches[t], 0] >= 0
+            and gen.bed.loops.get(gen.positions[int(stitches[t])], 0) == 1
+        ][::n]
+        if not at:
+            continue
+        first = int(stitches[at[0]])
+        carrier = _back_carrier(gen, y, first)
+        k = -1 if origin is None else int(origin[first])
+        span = g.spans[k] if k >= 0 else gen.bed.span(first)
+        half = g.course_gauge[g.course[first]] == 2
+        bed, prog = gen.bed, gen.bed.prog
+        prog.stitch_number(gen.opts.numbers.knit_half_gauge if half else gen.opts.numbers.knit)
+        with prog.code_pass("float_catch"):  # (each tuck names the stitch it rides on)
+            for t in at:
+                s, d = int(stitches[t]), int(dirs[t])
+                pos = gen.positions[s]
+                prog.needle_op("tuck", d, needle_of(pos), (carrier,), s, span)
+                bed.loops[pos] += 1
+                bed.carrier_at[carrier] = pos[1] + 0.5 * d
 
 
 def _end_regions(gen: _Gen, course: int) -> None:

@@ -630,8 +630,27 @@ class _Resolver:
                     hint='six hexadecimal digits of red, green and blue, e.g. "#c0392b"',
                 )
                 colour = ""
+            inlay = values.get("inlay", 0)
+            assert isinstance(inlay, int)
+            if inlay and name == sk.MAIN_YARN and decl is not None:
+                self.diags.error(
+                    "E322",
+                    "`main` is the design's own yarn: it knits every stitch no `knit` gives "
+                    "another yarn, and cannot be an inlay",
+                    next(p.span for p in decl.props if p.name.name == "inlay"),
+                    hint="declare the inlay as a yarn of its own: `yarn elastic { carrier: 7, "
+                    "inlay: 4 }`",
+                )
+                inlay = 0
             out[name] = sk.Yarn(
-                name, carrier, carry, decl.span if decl else None, tuck, colour.lower(), plating
+                name,
+                carrier,
+                carry,
+                decl.span if decl else None,
+                tuck,
+                colour.lower(),
+                plating,
+                inlay,
             )
         return out
 

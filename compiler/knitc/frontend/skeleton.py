@@ -145,6 +145,14 @@ YARN_PROPS: dict[str, PropSpec] = {
         doc="the carrier of a second yarn knitted together with this one, stitch for stitch "
         "(plating: both carriers in one carrier set); this yarn shows on the face (0: none)",
     ),
+    "inlay": PropSpec(
+        "int",
+        0,
+        min=0,
+        max=100,
+        doc="an inlay yarn: laid into the courses `knit` gives it, not knitted, caught by a "
+        "tuck every this many needles on the course's new loops (0: a knitting yarn)",
+    ),
     "colour": PropSpec(
         "string",
         "",
@@ -286,6 +294,8 @@ class Yarn:
     """"#rrggbb", or "" (none): what a colour image's pixels are matched to."""
     plating: int | None = None
     """The carrier of the yarn knitted together with this one (`plating`), or None."""
+    inlay: int = 0
+    """An inlay yarn's catching distance in needles (`inlay`); 0: a knitting yarn."""
 
 
 @dataclass
@@ -691,6 +701,7 @@ def to_json(skel: Skeleton) -> dict[str, Any]:
                         "tuck_every": y.tuck_every,
                         **({"colour": y.colour} if y.colour else {}),
                         **({"plating": y.plating} if y.plating is not None else {}),
+                        **({"inlay": y.inlay} if y.inlay else {}),
                     }
                     for y in skel.yarn_list
                 ]

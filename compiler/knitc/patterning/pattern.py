@@ -79,7 +79,7 @@ def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> Sti
         # the statements of one `pattern X { ... }` block share its `let`s
         env = run.envs.setdefault(layer.origin, QueryEnv(params=dict(skel.params), lets={}))
         run.stmts((layer.stmt,), node, env, None, 0)
-    if run.yarn is None and run.backing is None:
+    if run.yarn is None and run.backing is None and run.inlay is None:
         return dataclasses.replace(
             g, instr=run.instr, action=run.action, origin=run.origin, spans=run.spans
         )
@@ -99,6 +99,8 @@ def apply_patterns(skel: sk.Skeleton, g: StitchGraph, diags: Diagnostics) -> Sti
         yarn_origin=run.yarn_origin,
         backing=run.backing,
         backing_origin=run.backing_origin,
+        inlay=run.inlay,
+        inlay_origin=run.inlay_origin,
     )
 
 
@@ -317,6 +319,9 @@ class _Run:
     (`StitchGraph.backing`)."""
     backing_origin: np.ndarray | None = None
     """The `spans` index of the `backing` statement that last set each stitch's backing."""
+    inlay: np.ndarray | None = None
+    """Each stitch's inlay yarn, once a `knit` of an inlay yarn has run (`StitchGraph.inlay`)."""
+    inlay_origin: np.ndarray | None = None
     yarn_index: dict = dataclasses.field(default_factory=dict)
 
     @property
@@ -393,7 +398,15 @@ class _Run:
             k = self.yarn_index.get(name)
         if k is None:
             return  # the resolver reported it (E228)
-        self.set_yarn(self.select(node, stmt.where, env, within), k, stmt.span)
+        mask = self.select(node, stmt.where, env, within)
+        if self.skel.yarn_list[k].inlay:  # laid in over the stitches, not knitting them
+            if self.inlay is None or self.inlay_origin is None:
+                self.inlay = np.zeros(self.g.n_stitches, np.int8)
+                self.inlay_origin = np.full(self.g.n_stitches, -1, np.int32)
+            self.inlay[mask] = k
+            self.inlay_origin[mask] = self.span_id(stmt.span)
+            return
+        self.set_yarn(mask, k, stmt.span)
 
     def back_with(
         self, stmt: ast.BackingStmt, node: int | None, env: QueryEnv, within: np.ndarray | None

@@ -128,6 +128,12 @@ class StitchGraph:
     backing_origin: np.ndarray | None = None
     """int32 per stitch: index into `spans` of the `backing` statement that set its backing
     (-1: none): the backing's ops point at it."""
+    inlay: np.ndarray | None = None
+    """int8 per stitch: the inlay yarn laid into its course over it (an index into
+    `yarn_names`, 0: none); set by `knit YARN where ...` for a yarn with `inlay`. None when
+    no statement lays one."""
+    inlay_origin: np.ndarray | None = None
+    """int32 per stitch: index into `spans` of the `knit` statement that laid its inlay."""
 
     def __post_init__(self) -> None:
         if self.origin is None:
@@ -279,6 +285,11 @@ def verify(g: StitchGraph) -> list[str]:
         and (int(g.yarn.min()) < 0 or int(g.yarn.max()) >= len(g.yarn_names))
     ):
         problems.append("a stitch's yarn is not one of the graph's yarns")
+    if g.inlay is not None and (
+        g.inlay.shape != (n,)
+        or (n and (int(g.inlay.min()) < 0 or int(g.inlay.max()) >= len(g.yarn_names)))
+    ):
+        problems.append("the inlay array is not one of the graph's yarns per stitch")
     if g.backing is not None:
         if g.backing.shape != (n,):
             problems.append("the backing array is not one value per stitch")
@@ -332,6 +343,11 @@ def to_json(g: StitchGraph, *, stitches: bool = True) -> dict[str, Any]:
                 **(
                     {"backing": BACKINGS[int(g.backing[i])]}
                     if g.backing is not None and g.backing[i]
+                    else {}
+                ),
+                **(
+                    {"inlay": g.yarn_names[int(g.inlay[i])]}
+                    if g.inlay is not None and g.inlay[i]
                     else {}
                 ),
             }

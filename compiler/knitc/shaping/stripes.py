@@ -101,4 +101,6 @@ def _renumber(g: StitchGraph, order: np.ndarray, flipped: np.ndarray) -> StitchG
         yarn_origin=None if g.yarn_origin is None else g.yarn_origin[order],
         backing=None if g.backing is None else g.backing[order],
         backing_origin=None if g.backing_origin is None else g.backing_origin[order],
+        inlay=None if g.inlay is None else g.inlay[order],
+        inlay_origin=None if g.inlay_origin is None else g.inlay_origin[order],
     )
