@@ -79,11 +79,20 @@ def test_the_summary_counts_both_yarns_of_a_plated_pair():
     assert "8 ends to weave in" in summary_line(_compiled("sheet"), "s.k")
 
 
-def test_a_decrease_of_plated_stitches_is_a_warning_at_the_yarn():
+def test_a_decrease_stacks_a_plated_stitch_on_the_face_yarn_alone():
+    """The stitches a decrease stacks are knitted without the plating yarn: the
+    independent machine, which counts a plated stitch as two loops, sees at most three on
+    a needle (its hazard is four)."""
     text = "yarn main { carrier: 3, plating: 4 }\nsheet s { length: 12, width: [0: 10, 1: 7] }\n"
     r = compile_source(text, "p.knit", until="machine")
-    w = [d for d in r.diagnostics if d.code == "W604"]
-    assert len(w) == 1 and w[0].span is not None and w[0].span.line == 1
+    assert r.program is not None and not r.diagnostics.warning_count, r.diagnostics.render()
+    g = r.graph
+    assert g is not None
+    parents = set(g.wale_prev[(g.wale_prev >= 0).sum(axis=1) == 2].ravel().tolist())
+    knits = [o for o in r.program.ops if o.phase == "action" and o.kind == "knit"]
+    assert {o.carriers for o in knits if o.stitch in parents} == {(3,)}
+    assert (3, 4) in {o.carriers for o in knits if o.stitch not in parents}
+    assert_knits_as_designed([r], names=["plated decreases"])
 
 
 # ---- inlay ------------------------------------------------------------------------------------

@@ -368,7 +368,6 @@ def generate(
             hint="knit this node in half gauge (`gauge: half`) to leave the "
             "facing needles empty for reverse stitches",
         )
-    _warn_plated_decreases(gen)
     for node, n in sorted(gen.split_fallbacks.items()):
         ids = np.nonzero(g.node == node)[0]
         diags.warning(
@@ -383,30 +382,6 @@ def generate(
     return prog
 
 
-def _warn_plated_decreases(gen: _Gen) -> None:
-    """W604 at a plated yarn's declaration: a decrease stacks two of its stitches on one
-    needle, each a loop of both yarns, four loops of yarn that the knit above draws
-    through at once (the independent machine counts them against its four-loop limit)."""
-    g, opts = gen.g, gen.opts
-    plated = [i for i, p in enumerate(opts.yarn_plating) if p is not None]
-    if not plated or g.yarn is None:
-        return
-    dec = np.nonzero((g.wale_prev >= 0).sum(axis=1) == 2)[0]
-    if dec.size == 0:
-        return
-    ys = g.yarn[g.wale_prev[dec, 0]]
-    for y in plated:
-        n = int((ys == y).sum())
-        if n:
-            gen.diags.warning(
-                "W604",
-                f"{n} decrease(s) stack two plated stitches of yarn `{g.yarn_names[y]}` on one "
-                "needle: four loops of yarn",
-                opts.yarn_spans[y] if y < len(opts.yarn_spans) else None,
-                hint="keep a plated yarn to unshaped fabric, or shape where another yarn knits",
-            )
-
-
 def _plate(gen: _Gen) -> None:
     """A plated yarn's ops (`yarn { plating }`) with its plating carrier after its own in
     the carrier set (`knit + f5 5 6`: its yarn on the face, the plating yarn behind). Made
@@ -416,6 +391,10 @@ def _plate(gen: _Gen) -> None:
     and its cast-on alone, and its plating yarn comes in (`in`) at its first knit, onto
     loops that hold it (a `miss` first parks it there: a carrier brought in is first used
     in the set it came in with). Any other yarn comes in with its plating (`in 5 6`).
+
+    A stitch that a decrease stacks onto another is knitted by the face yarn alone (the
+    plating yarn floats past it): two plated stitches on one needle would be four loops
+    of yarn, and this way a decrease stacks two or three.
 
     The bind-off is knitted by the face yarn alone: each chain stitch draws the two yarns'
     loops into one, so the chain moves one loop onto the next needle's two (a plated chain
@@ -428,6 +407,9 @@ def _plate(gen: _Gen) -> None:
     owner: dict[int, int] = {}  # carrier -> the design yarn holding it
     hooked: set[int] = set()  # carriers started on the hook: their plating is not in yet
     plated: dict[int, int] = {}  # the design yarn -> its carrier whose plating is in
+    g = gen.g
+    dec = np.nonzero((g.wale_prev >= 0).sum(axis=1) == 2)[0]
+    stacked = set(g.wale_prev[dec].ravel().tolist()) - {-1}  # a decrease's parents
     log = iter(sorted(gen.taken))
     nxt = next(log, None)
 
@@ -478,7 +460,9 @@ def _plate(gen: _Gen) -> None:
                 del plated[owner[c]]
             hooked.difference_update(cs)
             out.append(op)
-        elif op.phase in ("cast_off", "backing"):  # (the face yarn alone: see above)
+        elif op.phase in ("cast_off", "backing") or (  # (the face yarn alone: see above)
+            op.stitch >= 0 and op.phase == "action" and op.stitch in stacked
+        ):
             out.append(op)
         else:
             if kind == "knit" and hooked & set(cs):  # the first knit: the plating comes in,
