@@ -19,9 +19,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from designs import assert_round_trips_through_dat, compiled
 from fabric import assert_knits_as_designed
-from knitc.backends.dat_format import decode, encode, rows
-from knitc.backends.dat_write import to_dat
 from knitc.driver import compile_source
 from knitc.shaping.intarsia import regions
 from knitc.shaping.stitch_graph import INTARSIA
@@ -125,22 +124,16 @@ DESIGNS = {
 
 
 def _compiled(name: str):
-    r = compile_source(DESIGNS[name], f"{name}.knit", until="machine")
-    assert r.program is not None and not r.diagnostics.has_errors, r.diagnostics.render()
-    return r
+    return compiled(DESIGNS[name], name, clean=True)
 
 
 def test_intarsia_designs_knit_as_designed_on_the_independent_machine():
-    results = [_compiled(n) for n in DESIGNS]
-    for name, r in zip(DESIGNS, results, strict=True):
-        assert not r.diagnostics.warning_count, (name, r.diagnostics.render())
-    assert_knits_as_designed(results, names=list(DESIGNS))
+    assert_knits_as_designed([_compiled(n) for n in DESIGNS], names=list(DESIGNS))
 
 
 @pytest.mark.parametrize("name", ["sheet-diamond", "tube-front"])
 def test_intarsia_designs_round_trip_through_dat(name):
-    image = to_dat(_compiled(name).program)
-    assert rows(decode(encode(image))) == rows(image)
+    assert_round_trips_through_dat(_compiled(name))
 
 
 def test_each_region_has_its_own_carrier_in_once_and_out_once():

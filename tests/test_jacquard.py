@@ -20,9 +20,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from designs import assert_round_trips_through_dat, compiled
 from fabric import assert_knits_as_designed
-from knitc.backends.dat_format import decode, encode, rows
-from knitc.backends.dat_write import to_dat
 from knitc.codegen.backing import back_knits
 from knitc.driver import compile_source
 from knitc.shaping.stitch_graph import BACKINGS, JACQUARD, two_bed
@@ -129,24 +128,18 @@ DESIGNS = {f"{kind}-{n}": _design(kind, n) for kind in ("float", *JACQUARD) for 
 
 
 def _compiled(name: str):
-    r = compile_source(DESIGNS[name], f"{name}.knit", until="machine")
-    assert r.program is not None and not r.diagnostics.has_errors, r.diagnostics.render()
-    return r
+    return compiled(DESIGNS[name], name, clean=True)
 
 
 def test_jacquard_designs_knit_as_designed_on_the_independent_machine():
-    results = [_compiled(n) for n in DESIGNS]
-    for name, r in zip(DESIGNS, results, strict=True):
-        assert not r.diagnostics.warning_count, (name, r.diagnostics.render())
-    assert_knits_as_designed(results, names=list(DESIGNS))
+    assert_knits_as_designed([_compiled(n) for n in DESIGNS], names=list(DESIGNS))
 
 
 @pytest.mark.parametrize(
     "name", ["birdseye-2", "horizontal-3", "whole-sheet", "half-tube-birdseye"]
 )
 def test_jacquard_designs_round_trip_through_dat(name):
-    image = to_dat(_compiled(name).program)
-    assert rows(decode(encode(image))) == rows(image)
+    assert_round_trips_through_dat(_compiled(name))
 
 
 def _back_ops(r):

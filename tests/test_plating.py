@@ -12,9 +12,8 @@ from __future__ import annotations
 
 import pytest
 
+from designs import assert_round_trips_through_dat, compiled
 from fabric import assert_knits_as_designed
-from knitc.backends.dat_format import decode, encode, rows
-from knitc.backends.dat_write import to_dat
 from knitc.driver import compile_source
 from knitc.summary import summary_line
 
@@ -42,10 +41,7 @@ pattern t {
 
 
 def _compiled(name: str):
-    r = compile_source(DESIGNS[name], f"{name}.knit", until="machine")
-    assert r.program is not None and not r.diagnostics.has_errors, r.diagnostics.render()
-    assert not r.diagnostics.warning_count, r.diagnostics.render()
-    return r
+    return compiled(DESIGNS[name], name, clean=True)
 
 
 def test_plated_designs_knit_as_designed_on_the_independent_machine():
@@ -54,8 +50,7 @@ def test_plated_designs_knit_as_designed_on_the_independent_machine():
 
 @pytest.mark.parametrize("name", sorted(DESIGNS))
 def test_plated_designs_round_trip_through_dat(name):
-    image = to_dat(_compiled(name).program)
-    assert rows(decode(encode(image))) == rows(image)
+    assert_round_trips_through_dat(_compiled(name))
 
 
 def test_every_stitch_of_a_plated_yarn_is_knitted_with_both_carriers():
@@ -120,10 +115,7 @@ pattern t {
 
 
 def _inlaid(name: str):
-    r = compile_source(INLAYS[name], f"{name}.knit", until="machine")
-    assert r.program is not None and not r.diagnostics.has_errors, r.diagnostics.render()
-    assert not r.diagnostics.warning_count, r.diagnostics.render()
-    return r
+    return compiled(INLAYS[name], name, clean=True)
 
 
 def test_inlaid_designs_knit_as_designed_on_the_independent_machine():
@@ -132,8 +124,7 @@ def test_inlaid_designs_knit_as_designed_on_the_independent_machine():
 
 @pytest.mark.parametrize("name", sorted(INLAYS))
 def test_inlaid_designs_round_trip_through_dat(name):
-    image = to_dat(_inlaid(name).program)
-    assert rows(decode(encode(image))) == rows(image)
+    assert_round_trips_through_dat(_inlaid(name))
 
 
 def test_an_inlay_yarn_only_tucks_every_n_needles_of_its_courses():

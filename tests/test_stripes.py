@@ -21,9 +21,8 @@ import pytest
 from hypothesis import given, note, settings
 from hypothesis import strategies as st
 
+from designs import assert_round_trips_through_dat, compiled
 from fabric import assert_knits_as_designed
-from knitc.backends.dat_format import decode, encode, rows
-from knitc.backends.dat_write import to_dat
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source
 from knitc.patterning.pattern import apply_patterns
@@ -300,9 +299,7 @@ pattern s {
 
 
 def _compiled(name: str):
-    r = compile_source(DESIGNS[name], f"{name}.knit", until="machine")
-    assert r.program is not None and not r.diagnostics.has_errors, r.diagnostics.render()
-    return r
+    return compiled(DESIGNS[name], name)
 
 
 def test_striped_designs_knit_as_designed_on_the_independent_machine():
@@ -312,8 +309,7 @@ def test_striped_designs_knit_as_designed_on_the_independent_machine():
 
 @pytest.mark.parametrize("name", sorted(DESIGNS))
 def test_striped_designs_round_trip_through_dat(name):
-    image = to_dat(_compiled(name).program)
-    assert rows(decode(encode(image))) == rows(image)
+    assert_round_trips_through_dat(_compiled(name))
 
 
 def test_yarns_are_brought_in_once_and_carried_between_their_stripes():
