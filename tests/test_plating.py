@@ -11,11 +11,14 @@ with).
 from __future__ import annotations
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from designs import assert_round_trips_through_dat, compiled
 from fabric import assert_knits_as_designed
 from knitc.driver import compile_source
 from knitc.summary import summary_line
+from test_stripes import striped
 
 DESIGNS = {
     "sheet": """
@@ -146,3 +149,55 @@ def test_an_inlay_yarn_only_tucks_every_n_needles_of_its_courses():
     # the stitches keep their own yarn: an inlay does not knit them
     assert not g.yarn.any()
     assert "2 yarns (elastic, main), 4 ends to weave in" in summary_line(r, "s.k")
+
+
+# ---- the plating pass on random designs -------------------------------------------------------
+
+
+@st.composite
+def plated(draw) -> str:
+    """A random striped or fair isle design (`test_stripes.striped`) whose yarns, `main`
+    included, are plated on carriers 8 to 10, some of them."""
+    text = draw(striped(fair_isle=True))
+    lines = text.splitlines()
+    plates = iter((8, 9, 10))
+    out = []
+    for line in lines:
+        if line.startswith("yarn ") and draw(st.booleans()):
+            line = line.replace(" }", f", plating: {next(plates)} }}", 1)
+        out.append(line)
+    if draw(st.booleans()):
+        out.insert(0, f"yarn main {{ carrier: 3, plating: {next(plates)} }}")
+    return "\n".join(out) + "\n"
+
+
+@settings(max_examples=40, derandomize=True, deadline=None)
+@given(plated())
+def test_the_plating_pass_keeps_each_plated_yarn_with_its_partner(text):
+    """Every set holds a plating carrier right after its yarn's own, never alone but for
+    the parking miss after its `in`; each plating carrier comes in before it knits and
+    goes out with its yarn; the program verifies (the verifier of every stage runs)."""
+    r = compile_source(text, "plated.knit", until="machine", verify=True)
+    assert r.program is not None, text + r.diagnostics.render()
+    partner = {}
+    for line in text.splitlines():
+        if line.startswith("yarn ") and "plating" in line:
+            c = int(line.split("carrier: ")[1].split(",")[0].split(" ")[0])
+            partner[int(line.split("plating: ")[1].split(" ")[0].rstrip(",}"))] = c
+    inside: set[int] = set()
+    for op in r.program.ops:
+        cs = op.carriers
+        assert len(cs) <= 2, op
+        if op.kind == "in":
+            inside.update(cs)
+        elif op.kind in ("out", "outhook"):
+            inside.difference_update(cs)
+        for i, c in enumerate(cs):
+            if (
+                c in partner
+                and op.kind not in ("in", "out")
+                and not (op.kind == "miss" and cs == (c,))
+            ):
+                assert c in inside, (op, text)
+                assert i > 0 and cs[i - 1] == partner[c], (op, text)
+    assert not inside & set(partner), text
