@@ -201,3 +201,43 @@ def test_the_plating_pass_keeps_each_plated_yarn_with_its_partner(text):
                 assert c in inside, (op, text)
                 assert i > 0 and cs[i - 1] == partner[c], (op, text)
     assert not inside & set(partner), text
+
+
+@st.composite
+def inlaid(draw) -> tuple[str, int]:
+    """A random striped or fair isle design with an inlay yarn laid over random courses."""
+    text = draw(striped(fair_isle=True))
+    n = draw(st.integers(1, 5))
+    lines = text.splitlines()
+    length = int(next(ln for ln in lines if "length:" in ln).split("length: ")[1].split(",")[0])
+    a = draw(st.integers(0, length - 1))
+    b = draw(st.integers(a, length - 1))
+    lines.insert(0, f"yarn elastic {{ carrier: 9, inlay: {n} }}")
+    lines.insert(-1, f"  knit elastic where courses({a}:{b})")
+    return "\n".join(lines) + "\n", n
+
+
+@settings(max_examples=40, derandomize=True, deadline=None)
+@given(inlaid())
+def test_an_inlay_only_tucks_on_its_courses_n_needles_apart(case):
+    """The inlay carrier never knits; each tuck rides on a stitch of its courses that has a
+    stitch above (which knits it in), at least N needles from the one before in its pass;
+    the stitches keep their yarns; every stage verifies."""
+    text, n = case
+    r = compile_source(text, "inlaid.knit", until="machine", verify=True)
+    assert r.program is not None, text + r.diagnostics.render()
+    g = r.graph
+    assert g is not None and g.inlay is not None
+    last: dict[int, tuple[str, int]] = {}  # course -> the bed and needle of its last tuck
+    for op in r.program.ops:
+        if 9 not in op.carriers:
+            continue
+        assert op.kind in ("in", "tuck", "miss", "out", "outhook"), (op, text)
+        if op.kind == "tuck" and op.phase == "float_catch" and op.stitch >= 0:
+            # (a tuck of no stitch is the resting yarn's catch into the edge)
+            s = op.stitch
+            assert g.inlay[s] > 0 and g.wale_next[s, 0] >= 0, (op, text)
+            c = int(g.course[s])
+            if c in last and last[c][0] == op.needle.bed:  # (a tube's fold turns the pass)
+                assert abs(op.needle.index - last[c][1]) >= n, (op, text)
+            last[c] = (op.needle.bed, op.needle.index)

@@ -1303,12 +1303,16 @@ def _inlay_pass(gen: _Gen, chunk: np.ndarray) -> None:
     origin = g.inlay_origin
     for y in sorted(set(laid.tolist()) - {0}):
         n = every[y] if y < len(every) and every[y] > 0 else 1
+        # every n-th stitch of the course (counted along it, so a course knitted in parts,
+        # one per slice, keeps the spacing), on a single new loop with a stitch above
+        start = int(g.course_start[g.course[stitches[0]]])
         at = [
             t
             for t in np.nonzero(laid == y)[0].tolist()
-            if g.wale_next[stitches[t], 0] >= 0
+            if (int(stitches[t]) - start) % n == 0
+            and g.wale_next[stitches[t], 0] >= 0
             and gen.bed.loops.get(gen.positions[int(stitches[t])], 0) == 1
-        ][::n]
+        ]
         if not at:
             continue
         first = int(stitches[at[0]])
