@@ -19,7 +19,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from designs import assert_round_trips_through_dat, compiled
+from design_helpers import assert_round_trips_through_dat, compiled
 from fabric import assert_knits_as_designed
 from knitc.driver import compile_source
 from knitc.shaping.intarsia import regions

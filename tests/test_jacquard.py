@@ -20,7 +20,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from designs import assert_round_trips_through_dat, compiled
+from design_helpers import assert_round_trips_through_dat, compiled
 from fabric import assert_knits_as_designed
 from knitc.codegen.backing import back_knits
 from knitc.driver import compile_source

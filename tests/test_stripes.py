@@ -21,7 +21,7 @@ import pytest
 from hypothesis import given, note, settings
 from hypothesis import strategies as st
 
-from designs import assert_round_trips_through_dat, compiled
+from design_helpers import assert_round_trips_through_dat, compiled
 from fabric import assert_knits_as_designed
 from knitc.diagnostics import Diagnostics
 from knitc.driver import compile_source
