@@ -166,8 +166,9 @@ def plated(draw) -> str:
         if line.startswith("yarn ") and draw(st.booleans()):
             line = line.replace(" }", f", plating: {next(plates)} }}", 1)
         out.append(line)
-    if draw(st.booleans()):
-        out.insert(0, f"yarn main {{ carrier: 3, plating: {next(plates)} }}")
+    rest = list(plates)
+    if rest and draw(st.booleans()):
+        out.insert(0, f"yarn main {{ carrier: 3, plating: {rest[0]} }}")
     return "\n".join(out) + "\n"
 
 
@@ -241,3 +242,17 @@ def test_an_inlay_only_tucks_on_its_courses_n_needles_apart(case):
             if c in last and last[c][0] == op.needle.bed:  # (a tube's fold turns the pass)
                 assert abs(op.needle.index - last[c][1]) >= n, (op, text)
             last[c] = (op.needle.bed, op.needle.index)
+
+
+@settings(max_examples=3, derandomize=True, deadline=None)
+@given(st.lists(plated(), min_size=3, max_size=3), st.lists(inlaid(), min_size=3, max_size=3))
+def test_random_plated_and_inlaid_designs_knit_as_designed(plated_texts, inlaid_cases):
+    """Six random designs at a time (one oracle process for all) on the independent
+    machine, held to the design by the fabric check."""
+    texts = [*plated_texts, *(t for t, _ in inlaid_cases)]
+    results = []
+    for i, text in enumerate(texts):
+        r = compile_source(text, f"p{i}.knit", until="machine")
+        assert r.program is not None, text + r.diagnostics.render()
+        results.append(r)
+    assert_knits_as_designed(results, names=[f"design {i}:\n{t}" for i, t in enumerate(texts)])

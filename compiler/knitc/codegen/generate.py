@@ -399,7 +399,8 @@ def _plate(gen: _Gen) -> None:
     The bind-off is knitted by the face yarn alone: each chain stitch draws the two yarns'
     loops into one, so the chain moves one loop onto the next needle's two (a plated chain
     would stack four); so is a jacquard back layer, which closes onto the plated stitches
-    in front of it. Before the yarn's `outhook` the plating yarn goes out (`out`)."""
+    in front of it, and so are the catching tucks (a float's, a resting yarn's, an
+    intarsia join), which ride on a plated stitch's two loops. Before the yarn's `outhook` the plating yarn goes out (`out`)."""
     plating = gen.opts.yarn_plating
     if not any(p is not None for p in plating):
         return
@@ -460,7 +461,7 @@ def _plate(gen: _Gen) -> None:
                 del plated[owner[c]]
             hooked.difference_update(cs)
             out.append(op)
-        elif op.phase in ("cast_off", "backing") or (  # (the face yarn alone: see above)
+        elif op.phase in ("cast_off", "backing", "float_catch") or (  # (the face yarn alone)
             op.stitch >= 0 and op.phase == "action" and op.stitch in stacked
         ):
             out.append(op)
@@ -1304,13 +1305,15 @@ def _inlay_pass(gen: _Gen, chunk: np.ndarray) -> None:
     for y in sorted(set(laid.tolist()) - {0}):
         n = every[y] if y < len(every) and every[y] > 0 else 1
         # every n-th stitch of the course (counted along it, so a course knitted in parts,
-        # one per slice, keeps the spacing), on a single new loop with a stitch above
+        # one per slice, keeps the spacing), on a single new loop with a stitch above that
+        # is no decrease (the tuck would go onto its neighbour's loops with it)
         start = int(g.course_start[g.course[stitches[0]]])
         at = [
             t
             for t in np.nonzero(laid == y)[0].tolist()
             if (int(stitches[t]) - start) % n == 0
             and g.wale_next[stitches[t], 0] >= 0
+            and g.wale_prev[g.wale_next[stitches[t], 0], 1] < 0  # (not stacked by a decrease)
             and gen.bed.loops.get(gen.positions[int(stitches[t])], 0) == 1
         ]
         if not at:
