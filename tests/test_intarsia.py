@@ -19,7 +19,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from design_helpers import assert_round_trips_through_dat, compiled
+from design_helpers import assert_random_designs_knit, assert_round_trips_through_dat, compiled
 from fabric import assert_knits_as_designed
 from knitc.driver import compile_source
 from knitc.shaping.intarsia import regions
@@ -188,9 +188,4 @@ def test_a_plated_yarn_in_two_regions_at_once_is_an_error_at_the_yarn():
 @given(st.lists(intarsia(), min_size=6, max_size=6))
 def test_random_intarsia_designs_knit_as_designed(texts):
     """Six random designs at a time (one oracle process for all)."""
-    results = []
-    for i, text in enumerate(texts):
-        r = compile_source(text, f"i{i}.knit", until="machine")
-        assert r.program is not None, text + r.diagnostics.render()
-        results.append(r)
-    assert_knits_as_designed(results, names=[f"design {i}:\n{t}" for i, t in enumerate(texts)])
+    assert_random_designs_knit(texts, "i")

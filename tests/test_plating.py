@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from design_helpers import assert_round_trips_through_dat, compiled
+from design_helpers import assert_random_designs_knit, assert_round_trips_through_dat, compiled
 from fabric import assert_knits_as_designed
 from knitc.driver import compile_source
 from knitc.summary import summary_line
@@ -250,9 +250,4 @@ def test_random_plated_and_inlaid_designs_knit_as_designed(plated_texts, inlaid_
     """Six random designs at a time (one oracle process for all) on the independent
     machine, held to the design by the fabric check."""
     texts = [*plated_texts, *(t for t, _ in inlaid_cases)]
-    results = []
-    for i, text in enumerate(texts):
-        r = compile_source(text, f"p{i}.knit", until="machine")
-        assert r.program is not None, text + r.diagnostics.render()
-        results.append(r)
-    assert_knits_as_designed(results, names=[f"design {i}:\n{t}" for i, t in enumerate(texts)])
+    assert_random_designs_knit(texts, "p")
