@@ -13,7 +13,16 @@ TUBE = "tube t { length: 4  width: 4 }\n"
 
 def test_every_ir_stage_has_a_verifier_or_is_checked_by_diagnostics_and_a_dump():
     names = [s.name for s in STAGES]
-    assert names == ["ast", "skeleton", "stitch-graph", "trace", "slices", "schedule", "machine"]
+    assert names == [
+        "ast",
+        "skeleton",
+        "stitch-graph",
+        "trace",
+        "slices",
+        "schedule",
+        "yarn-stack",
+        "machine",
+    ]
     assert EMITTABLE == tuple(names)
     assert all(s.verify is not None for s in STAGES[2:])  # from the stitch graph on
     assert [t.name for t in TARGETS] == ["knitout", "dat"]

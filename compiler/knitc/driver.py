@@ -1,7 +1,7 @@
 """The pipeline, readable in one place, and the table of its stages.
 
     source ──parse──▶ AST ──resolve──▶ Skeleton ──shape, pattern, check──▶ StitchGraph
-      ──trace──▶ Trace ──slice──▶ Slices ──schedule──▶ Schedule
+      ──trace──▶ Trace ──slice──▶ Slices ──schedule──▶ Schedule ──stack──▶ YarnStacks
       ──generate, simulate──▶ MachineProgram ──▶ Knitout text | DAT bytes
 
 `STAGES` lists the IR stages in pipeline order and `TARGETS` the machine formats that follow
@@ -34,6 +34,7 @@ from knitc.limits import MAX_STITCHES
 from knitc.source import SourceFile, Span
 
 if TYPE_CHECKING:
+    from knitc.codegen import yarn_stack as ys
     from knitc.frontend import ast
     from knitc.frontend import skeleton as sk
     from knitc.scheduling import schedule as sc
@@ -71,6 +72,7 @@ class Result:
     trace: tr.Trace | None = None
     slices: sl.Slices | None = None
     schedule: sc.Schedule | None = None
+    stacks: ys.YarnStacks | None = None
     program: mp.MachineProgram | None = None
     output: str | bytes | None = None
     stage_reached: str = "none"
@@ -180,6 +182,22 @@ def _schedule(r: Result) -> bool:
     return r.schedule is not None
 
 
+def _stack(r: Result) -> bool:
+    from knitc.codegen.yarn_stack import stack_yarns
+
+    assert r.skeleton is not None and r.graph is not None
+    assert r.schedule is not None and r.trace is not None
+    yarns = r.skeleton.yarn_list
+    r.stacks = stack_yarns(
+        r.graph,
+        r.trace,
+        r.schedule,
+        tuple(y.tuck_every for y in yarns),
+        tuple(y.inlay for y in yarns),
+    )
+    return True
+
+
 def _generate(r: Result) -> bool:
     from knitc.codegen.generate import generate, options_from_skeleton
     from knitc.codegen.simulate import add_to_diagnostics, simulate
@@ -199,6 +217,7 @@ def _generate(r: Result) -> bool:
         ),
         diags=r.diagnostics,
         options=options_from_skeleton(r.skeleton),
+        stacks=r.stacks,
     )
     if program is None:
         return False
@@ -311,6 +330,13 @@ STAGES: tuple[Stage, ...] = (
         lambda r: _lazy("knitc.scheduling.schedule").verify(_the(r.graph), _the(r.schedule)),
         lambda r: _lazy("knitc.scheduling.schedule").to_json(_the(r.graph), _the(r.schedule)),
         "each slice's layout and needle offset",
+    ),
+    Stage(
+        "yarn-stack",
+        _stack,
+        lambda r: _lazy("knitc.codegen.yarn_stack").verify(_the(r.graph), _the(r.stacks)),
+        lambda r: _lazy("knitc.codegen.yarn_stack").to_json(_the(r.graph), _the(r.stacks)),
+        "each stitch's front yarn and the back yarns that miss, tuck or knit behind it",
     ),
     Stage(
         "machine",

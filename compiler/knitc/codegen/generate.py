@@ -40,7 +40,7 @@ import numpy as np
 
 from knitc.codegen import actions
 from knitc.codegen import casting as cast
-from knitc.codegen.backing import back_knits
+from knitc.codegen import yarn_stack as stk
 from knitc.codegen.bed import BEDS, Bed, Pos, Unsupported
 from knitc.codegen.bed import needle as needle_of
 from knitc.codegen.machine import Machine, MachineProgram, racking_for
@@ -164,6 +164,9 @@ class _Gen:
     bed: Bed
     opts: CodegenOptions
     diags: Diagnostics
+    stacks: stk.YarnStacks
+    """Each stitch's yarn stack (`codegen.yarn_stack`): what every yarn of a course part does
+    at each of its stitches, read by the passes of several yarns."""
     where_span: Span | None = None
     """The span of the course being generated, for diagnostics."""
     carrier_of: dict[int, int] = field(default_factory=dict)
@@ -243,13 +246,6 @@ class _Gen:
     brought in for its pass, `_back_carrier`): dropped once a pass holds the yarn."""
     backing_at: dict[Pos, int] = field(default_factory=dict)
     """Back needles holding a jacquard backing's loop -> the stitch it is behind."""
-    backed: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
-    """Per stitch: a jacquard stitch of a course whose every wale goes straight on (one
-    child, the child's only parent, on the same needle). Only those get a backing loop:
-    the back layer is not shaped, so a course before one that decreases, increases or
-    moves (and the last one, before the bind-off) closes its loops onto the front a course
-    early: no needle holds more than two loops, and no backing loop is in the way of the
-    shaping's transfers (`_close_backing`)."""
 
     def __post_init__(self) -> None:
         self.knit_bed, self.knit_needle = sc.knit_positions(self.sched, self.g.n_stitches)
@@ -274,7 +270,7 @@ class _Gen:
             if intarsia.any():  # (an intarsia course has no back yarns: `_intarsia_pass`)
                 other &= ~intarsia[g.course]
                 self.region = regions(g)
-                self.region_course = _node_courses(g)
+                self.region_course = stk.node_courses(g)
                 mine = self.region >= 0
                 self.region_last = np.zeros(int(self.region.max()) + 1, np.int64)
                 np.maximum.at(self.region_last, self.region[mine], g.course[mine])
@@ -284,24 +280,10 @@ class _Gen:
             if jacquard is not None and jacquard.any():
                 self.jacquard = np.zeros(g.n_courses, bool)
                 self.jacquard[g.course[jacquard]] = True
-                for node in np.unique(g.node[jacquard]).tolist():
-                    ys = np.unique(g.yarn[jacquard & (g.node == node)]).tolist()
-                    self.region_yarns[node] = ys
-                self.region_course = _node_courses(g)
-                kids = g.wale_next
-                one = (kids >= 0).sum(axis=1) == 1
-                kid = kids.max(axis=1)
-                k = np.where(one, kid, 0)
-                straight = (
-                    one
-                    & ((g.wale_prev[k] >= 0).sum(axis=1) == 1)
-                    & (self.knit_bed[k] == self.knit_bed)
-                    & (self.knit_needle[k] == self.knit_needle)
-                )
-                bent = np.bincount(g.course[~straight], minlength=g.n_courses) > 0
-                self.backed = jacquard & ~bent[g.course]
-                self.backed_list = self.backed.tolist()
-                self.kid_list = kid.tolist()
+                self.region_yarns = stk.region_yarns(g)
+                self.region_course = stk.node_courses(g)
+                self.backed_list = self.stacks.backed.tolist()
+                self.kid_list = g.wale_next.max(axis=1).tolist()
                 for c in np.nonzero(self.jacquard)[0].tolist():
                     for y in self.region_yarns[int(g.course_node[c])]:
                         if y != int(self.course_yarn[c]):
@@ -329,19 +311,16 @@ def generate(
     carriers: tuple[int, ...],
     diags: Diagnostics,
     options: CodegenOptions | None = None,
+    stacks: stk.YarnStacks | None = None,
 ) -> MachineProgram | None:
     """The machine program for the whole trace; None (with an error) if something cannot
-    be knitted yet."""
+    be knitted yet. `stacks`: the yarn stacks of the pipeline's `yarn-stack` stage (made
+    here from the options when not given)."""
     prog = MachineProgram(machine)
-    gen = _Gen(
-        g,
-        sched,
-        t,
-        carriers,
-        Bed(g, prog, machine.racking_limit),
-        options or CodegenOptions(),
-        diags,
-    )
+    opts = options or CodegenOptions()
+    if stacks is None:
+        stacks = stk.stack_yarns(g, t, sched, opts.yarn_tuck_every, opts.yarn_inlay)
+    gen = _Gen(g, sched, t, carriers, Bed(g, prog, machine.racking_limit), opts, diags, stacks)
     try:
         _run(gen)
         _plate(gen)
@@ -481,14 +460,6 @@ def _plate(gen: _Gen) -> None:
                 both += [c] if p is None or c in hooked else [c, p]
             out.append(op._replace(carriers=tuple(both)))
     prog.ops[:] = out
-
-
-def _node_courses(g: StitchGraph) -> np.ndarray:
-    """Per course: its index among its node's courses."""
-    first: dict[int, int] = {}
-    for c, node in enumerate(g.course_node.tolist()):
-        first.setdefault(node, c)
-    return np.arange(g.n_courses) - np.array([first[n] for n in g.course_node.tolist()], np.int64)
 
 
 def _node_span(gen: _Gen, node: int) -> Span | None:
@@ -1126,10 +1097,11 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
 
 def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
     """A part of a course of several yarns (fair isle; plain knits only, E711): each yarn
-    in turn, the course's own first, knits its stitches in the course's direction and
-    floats behind the others (thesis ch. 6.9.5: one main step per yarn). In a jacquard
-    course every yarn of the region makes its pass, and knits behind the stitches the back
-    needles its backing gives it (`codegen.backing`), where it would float."""
+    of the part's yarn stacks (`codegen.yarn_stack`) in turn, the course's own first, knits
+    the stitches it shows on in the course's direction, tucks where its stack says (a long
+    float's catch) and floats behind the rest (thesis ch. 6.9.5: one main step per yarn).
+    In a jacquard course every yarn of the region makes its pass, and knits the back
+    needles behind the stitches its stack says, where it would float."""
     g = gen.g
     assert g.yarn is not None
     stitches = gen.t.stitch[chunk]
@@ -1143,27 +1115,23 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
     course = int(g.course[stitches[0]])
     base = int(gen.course_yarn[course])
     yarns = set(ys.tolist())
-    backs: np.ndarray | None = None
     region: list[int] = []
+    entry, place = gen.stacks.in_part(stitches)  # (`place`: each entry's index in the part)
+    mode, owner = gen.stacks.mode[entry], gen.stacks.yarn[entry]
+    knits = mode == stk.KNIT
+    tucks = (mode == stk.TUCK) & ~gen.stacks.inlay[entry]
     if gen.jacquard.size and gen.jacquard[course]:
-        assert g.backing is not None
         region = gen.region_yarns[int(g.course_node[course])]
         yarns |= set(region)
-        backs = back_knits(
-            np.where(gen.backed[stitches], g.backing[stitches], 0),
-            ys,
-            gen.knit_needle[stitches] // g.course_gauge[course],  # (columns, half gauge too)
-            np.full(len(stitches), int(gen.region_course[course])),
-            region,
-        )
         # quarter pitch: a yarn knits a front needle and the back one behind it in one
         # pass (all-needle knitting; a Shima row holds both in one column only so)
         gen.bed.set_rack(QUARTER)
-    done = np.zeros(len(stitches), bool)  # knitted in this part of the course already
-    every = gen.opts.yarn_tuck_every
     for y in [base] + sorted(yarns - {base}):
         sel = ys == y
-        back = backs[region.index(y)] if backs is not None and y in region else None
+        back = None
+        if y in region:  # (a jacquard yarn: the back needles it knits in its pass)
+            back = np.zeros(len(stitches), bool)
+            back[place[knits & (owner == y)]] = True
         if not sel.any() and (back is None or not back.any()):
             continue
         ids = stitches[sel].tolist()
@@ -1177,9 +1145,10 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
         if back is not None:
             _jacquard_run(gen, carrier, stitches, sel, back, dirs, plain, empty, spans)
         else:
-            n = every[y] if y < len(every) else 0
-            cuts = _catches(gen, stitches, sel, done, n) if n > 0 else {}
             at = np.nonzero(sel)[0]
+            cuts: dict[int, list[int]] = {}  # index of the yarn's next knit -> its catches
+            for c in np.sort(place[tucks & (owner == y)]).tolist():
+                cuts.setdefault(int(at[np.searchsorted(at, c)]), []).append(c)
             start_j = 0
             for j in range(len(at) + 1):  # runs of the yarn's knits, a catch between two
                 if j < len(at) and int(at[j]) not in cuts:
@@ -1200,7 +1169,6 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
                         _catch(gen, carrier, int(stitches[c]), int(dirs[c]), int(ids[0]))
                 start_j = j
         _drop_catch(gen)  # its pass holds the new yarn now (or the course's, on a cast-on)
-        done |= sel
         if y == base:  # (its lead-out in its own pass, before the other yarns')
             _lead_out(gen, ctx, chunk)
     if gen.bed.rack:
@@ -1293,28 +1261,22 @@ def _inlay_pass(gen: _Gen, chunk: np.ndarray) -> None:
     fabric, held at every N needles. It comes in (`in`) with its first tuck, on a loop,
     and rests at the side between its courses as a fair isle yarn does."""
     g = gen.g
-    assert g.inlay is not None
     stitches = gen.t.stitch[chunk]
-    laid = g.inlay[stitches]
+    entry, place = gen.stacks.in_part(stitches)
+    laid = gen.stacks.inlay[entry] & (gen.stacks.mode[entry] == stk.TUCK)
     if not laid.any():
         return
+    entry, place = entry[laid], place[laid]
     dirs = gen.dirs[chunk]
     dirs = np.where(dirs == 0, 1, dirs)
-    every = gen.opts.yarn_inlay
     origin = g.inlay_origin
-    for y in sorted(set(laid.tolist()) - {0}):
-        n = every[y] if y < len(every) and every[y] > 0 else 1
-        # every n-th stitch of the course (counted along it, so a course knitted in parts,
-        # one per slice, keeps the spacing), on a single new loop with a stitch above that
-        # is no decrease (the tuck would go onto its neighbour's loops with it)
-        start = int(g.course_start[g.course[stitches[0]]])
+    for y in sorted(set(gen.stacks.yarn[entry].tolist())):
+        # the stack's tucks (every n-th stitch along the course), on needles holding one
+        # new loop: a needle with two (a decrease's, a closed backing's) takes no third
         at = [
             t
-            for t in np.nonzero(laid == y)[0].tolist()
-            if (int(stitches[t]) - start) % n == 0
-            and g.wale_next[stitches[t], 0] >= 0
-            and g.wale_prev[g.wale_next[stitches[t], 0], 1] < 0  # (not stacked by a decrease)
-            and gen.bed.loops.get(gen.positions[int(stitches[t])], 0) == 1
+            for t in np.sort(place[gen.stacks.yarn[entry] == y]).tolist()
+            if gen.bed.loops.get(gen.positions[int(stitches[t])], 0) == 1
         ]
         if not at:
             continue
@@ -1480,37 +1442,6 @@ def _catch_resting(gen: _Gen, ids: np.ndarray, working: int) -> None:
         gen.caught[carrier] = course
         used.add(pos)
         _catch(gen, carrier, s, d, s, back_out=True)
-
-
-def _catches(
-    gen: _Gen, stitches: np.ndarray, sel: np.ndarray, done: np.ndarray, every: int
-) -> dict[int, list[int]]:
-    """Where a fair isle yarn (its stitches `sel` of the pass) catches its floats: index of
-    the yarn's stitch -> the stitches before it, in its float, whose needles it tucks on,
-    one every `every` needles. Only on a stitch knitted already in this course (its loop is
-    new; the tuck rides on it and is knitted in by the next course), on the bed the float
-    runs along, that has a next course."""
-    g = gen.g
-    at = np.nonzero(sel)[0].tolist()
-    out: dict[int, list[int]] = {}
-    for i, j in zip(at, at[1:], strict=False):
-        if j - i - 1 < every:
-            continue
-        bed = gen.positions[int(stitches[i])][0]
-        last = gen.positions[int(stitches[i])][1]
-        for t in range(i + 1, j):
-            s = int(stitches[t])
-            pos = gen.positions[s]
-            if (
-                abs(pos[1] - last) >= every
-                and done[t]
-                and pos[0] == bed
-                and g.wale_next[s, 0] >= 0
-                and abs(gen.positions[int(stitches[j])][1] - pos[1]) > 1
-            ):
-                out.setdefault(j, []).append(t)
-                last = pos[1]
-    return out
 
 
 def _catch(gen: _Gen, carrier: int, s: int, d: int, first: int, back_out: bool = False) -> None:
