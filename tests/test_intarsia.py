@@ -6,6 +6,9 @@ an intarsia course has a region and no other stitch has one; a region is of one 
 neighbours in a course share a region exactly when they share a yarn (a round's first and
 last stitch too); a wale between two intarsia stitches of one yarn stays in a region.
 
+Tracing gives each region a local yarn of its own (rule R7), and slicing splits where the
+yarn changes.
+
 Then designs on sheets and tubes, compiled to the end, run clean on the independent
 machine and knit the designed fabric: each stitch on its region's yarn, and every wall
 between two regions joined at every course (`fabric._walls`: no slit); and round-trip
@@ -22,6 +25,7 @@ from hypothesis import strategies as st
 from design_helpers import assert_random_designs_knit, assert_round_trips_through_dat, compiled
 from fabric import assert_knits_as_designed
 from knitc.driver import compile_source
+from knitc.scheduling import trace as tr
 from knitc.shaping.intarsia import regions
 from knitc.shaping.stitch_graph import INTARSIA
 
@@ -83,6 +87,46 @@ def test_regions_follow_the_yarns(text):
     a, b = ids[ok], child[ok]
     same = g.yarn[a] == g.yarn[b]
     assert (reg[a][same] == reg[b][same]).all()
+
+
+@settings(max_examples=40, derandomize=True, deadline=None)
+@given(intarsia())
+def test_tracing_starts_a_local_yarn_for_each_region_and_slicing_splits_where_it_changes(text):
+    """Tracing's rule R7: each region is knitted by one strand of its own, which starts on
+    the region's first course and ends after its last (the strand of the course below is
+    pending meanwhile: it knits no stitch of the band); every run but a flat course's last
+    ends in a JOIN; and no slice holds visits of two strands (the thesis' slicing split
+    where the yarn changes). Every stage's verifier runs too."""
+    r = compile_source(text, "i.knit", until="schedule", verify=True)
+    g, t, sl = r.graph, r.trace, r.slices
+    assert g is not None and t is not None and sl is not None, text + r.diagnostics.render()
+    reg = regions(g)
+    strand_of = np.full(g.n_stitches, -1, np.int64)
+    strand_of[t.stitch] = t.yarn
+    for k in np.unique(reg[reg >= 0]).tolist():
+        mine = reg == k
+        strands = set(strand_of[mine].tolist())
+        assert len(strands) == 1, (k, strands, text)
+        (strand,) = strands
+        assert (mine == (strand_of == strand)).all(), text  # its stitches and no others
+        visits = np.nonzero(t.yarn == strand)[0]
+        assert t.flags[visits[0]] & tr.START and t.flags[visits[-1]] & tr.END
+        courses = g.course[mine]
+        assert g.course[t.stitch[visits[0]]] == courses.min()
+        assert g.course[t.stitch[visits[-1]]] == courses.max()
+    band = g.intarsia_courses()
+    visit_course = g.course[t.stitch]
+    for c in range(g.n_courses):
+        vs = np.nonzero(visit_course == c)[0]
+        runs = 1 + int(np.count_nonzero(np.diff(t.yarn[vs]) != 0))
+        joins = int(np.count_nonzero(t.flags[vs] & tr.JOIN))
+        if not band[c]:
+            assert joins == 0
+        else:
+            assert joins == (runs if g.course_circular[c] else runs - 1), (c, text)
+    bounds = np.r_[sl.visit, t.n_visits]
+    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+        assert len(set(t.yarn[a:b].tolist())) == 1, text
 
 
 DESIGNS = {

@@ -104,7 +104,7 @@ def check_trace(g: sg.StitchGraph, t: tr.Trace) -> list[str]:
         out.append("yarn ids are not 0..n-1")
     if not set(np.unique(t.dir)) <= {-1, 1}:
         out.append("a direction is not +-1")
-    if np.any(t.flags & ~np.uint8(31)):
+    if np.any(t.flags & ~np.uint8(127)):
         out.append("unknown flag bits")
     for y in range(t.n_yarns):
         idx = yarn_visits(t, y)
@@ -119,6 +119,10 @@ def check_trace(g: sg.StitchGraph, t: tr.Trace) -> list[str]:
             if fl[k] & tr.CARRY:
                 if tr.carried(g, a, b) < 0:
                     out.append(f"yarn {y}: carried {a} -> {b} from another edge")
+                    break
+            elif fl[k] & tr.SHIFT:
+                if not tr.shifted(g, a, b):
+                    out.append(f"yarn {y}: shifted {a} -> {b} beyond its course and the next")
                     break
             elif not neighbours(g, a, b) and not fl[k] & tr.JUMP:
                 out.append(f"yarn {y}: unflagged jump {a} -> {b}")
@@ -174,13 +178,26 @@ def test_tracer_on_example(path, tracer):
 
 @pytest.mark.parametrize("path", EXAMPLES, ids=IDS)
 def test_trace_courses_visits_in_id_order_and_jumps_are_near(path):
+    """Course by course in id order, one yarn a course; an intarsia course has a yarn per
+    region (R7), and a round of one is visited from a wall, one way or back."""
     g = graph(str(path))
     t = traced(str(path), "courses")
-    assert list(t.stitch) == list(range(g.n_stitches))
-    assert far_jumps(g, t) == []
-    # a course is knitted by one yarn
+    band = g.intarsia_courses()
+    at = 0
     for c in range(g.n_courses):
-        assert len(set(t.yarn[g.course_ids(c)])) == 1
+        ids = g.course_ids(c).tolist()
+        got = t.stitch[at : at + len(ids)].tolist()
+        at += len(ids)
+        if not band[c]:
+            assert got == ids
+            assert len(set(t.yarn[g.course_ids(c)])) == 1
+        elif not g.course_circular[c]:
+            assert got == ids and len(set(t.yarn[g.course_ids(c)])) > 1
+        else:
+            k = ids.index(got[0])
+            turned = ids[k:] + ids[:k]
+            assert got in (turned, turned[:1] + turned[1:][::-1]), c
+    assert far_jumps(g, t) == []
 
 
 @pytest.mark.parametrize("path", EXAMPLES[:3], ids=IDS[:3])

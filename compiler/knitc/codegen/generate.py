@@ -58,7 +58,6 @@ from knitc.patterning import actions as pattern_actions
 from knitc.patterning.instructions import CROSSES, MOVES, cables, neighbour, origin_site, right_left
 from knitc.scheduling import schedule as sc
 from knitc.scheduling import trace as tr
-from knitc.shaping.intarsia import regions
 from knitc.shaping.stitch_graph import COURSE_KINDS, INSTRUCTIONS, StitchGraph, two_bed
 from knitc.source import Span
 
@@ -227,12 +226,16 @@ class _Gen:
     course of the node, its back needles at least."""
     region_course: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     """Per course: its index among its node's courses (a backing's `y`)."""
-    region: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
-    """Per stitch: its intarsia region (`shaping.intarsia.regions`), -1 elsewhere."""
-    region_last: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
-    """Per intarsia region: its last course, after which its carrier is taken out."""
+    intarsia: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    """Per course: an intarsia course, knitted by the local yarns of its regions (`_intarsia_pass`)."""
     region_carrier: dict[int, int] = field(default_factory=dict)
-    """Intarsia regions being knitted -> their carriers."""
+    """The local yarns of intarsia regions in action (strands of the trace, tracing's R7)
+    -> their carriers. They are not in `carrier_of`: no other course takes them, and a
+    region's yarn is not caught into the edge while it waits."""
+    join: tuple[int, int, int] | None = None
+    """An intarsia tuck join waiting for the next slice (carrier, direction, the stitch whose
+    statement it points at): the next run is tucked on once its slice is placed, so the
+    tuck is where that slice's shaping left the loops."""
     round_parts: list[np.ndarray] = field(default_factory=list)
     """The slices of an intarsia round seen so far: it is knitted once all are placed."""
     backed_list: list[bool] = field(default_factory=list)
@@ -255,7 +258,10 @@ class _Gen:
             (BEDS[b], n)
             for b, n in zip(self.knit_bed.tolist(), self.knit_needle.tolist(), strict=True)
         ]
-        self.dirs = sc.carriage_directions(self.sched, self.t.stitch, self.t.yarn)
+        t = self.t
+        self.dirs = sc.carriage_directions(
+            self.sched, t.stitch, tr.sweeps(self.g, t.stitch, t.yarn)
+        )
         g = self.g
         self.forks = set(np.nonzero((g.wale_next >= 0).sum(axis=1) == 2)[0].tolist())
         self.carrying = np.zeros(g.n_courses, bool)
@@ -269,11 +275,7 @@ class _Gen:
             intarsia = self.course_yarn == len(g.yarn_names)
             if intarsia.any():  # (an intarsia course has no back yarns: `_intarsia_pass`)
                 other &= ~intarsia[g.course]
-                self.region = regions(g)
-                self.region_course = stk.node_courses(g)
-                mine = self.region >= 0
-                self.region_last = np.zeros(int(self.region.max()) + 1, np.int64)
-                np.maximum.at(self.region_last, self.region[mine], g.course[mine])
+                self.intarsia = intarsia
             for c in np.unique(g.course[other]).tolist():
                 for y in set(g.yarn[g.course_ids(c)].tolist()) - {int(self.course_yarn[c])}:
                     back.setdefault(y, set()).add(c)
@@ -281,7 +283,7 @@ class _Gen:
                 self.jacquard = np.zeros(g.n_courses, bool)
                 self.jacquard[g.course[jacquard]] = True
                 self.region_yarns = stk.region_yarns(g)
-                self.region_course = stk.node_courses(g)
+                self.region_course = g.node_courses()
                 self.backed_list = self.stacks.backed.tolist()
                 self.kid_list = g.wale_next.max(axis=1).tolist()
                 for c in np.nonzero(self.jacquard)[0].tolist():
@@ -505,19 +507,18 @@ def _run(gen: _Gen) -> None:
             ci += 1
             primary = {}
             yarn = int(t.yarn[v0])
-            new = yarn not in gen.carrier_of
+            # (an intarsia course's regions' local yarns come in in `_intarsia_pass`)
+            local = bool(gen.intarsia.size and gen.intarsia[g.course[ids[0]]])
+            new = not local and yarn not in gen.carrier_of
             if new:
                 design = int(gen.course_yarn[g.course[ids[0]]]) if gen.course_yarn.size else 0
                 if design in gen.back:  # in already, for fair isle: the strand takes it
                     gen.carrier_of[yarn] = gen.back.pop(design)
                     new = False
-                elif design == len(g.yarn_names):  # an intarsia band: its regions' carriers
-                    gen.carrier_of[yarn] = NO_CARRIER
-                    new = False
                 else:
                     gen.carrier_of[yarn] = _take_carrier(gen, free, design)
                 gen.strand_yarn[yarn] = design
-            carrier = gen.carrier_of[yarn]
+            carrier = NO_CARRIER if local else gen.carrier_of[yarn]
             ctx = gen.ctx(carrier, int(ids[0]))
             gen.catch = []
             cids = t.stitch[chunk]
@@ -645,13 +646,12 @@ def _finish_course(
     if gen.back:
         _end_back_yarns(gen, int(g.course[ids[-1]]), int(ids[-1]))
     if gen.region_carrier:
-        _end_regions(gen, int(g.course[ids[-1]]))
+        _end_regions(gen, chunk)
     if gen.course_yarn.size:
         _catch_resting(gen, ids, carrier)
     with prog.code_pass("yarn_end"):
-        if carrier == NO_CARRIER:  # (an intarsia band's: its regions' yarns have ended)
-            if t.flags[chunk[-1]] & tr.END:
-                del gen.carrier_of[int(t.yarn[chunk[-1]])]
+        if carrier == NO_CARRIER:
+            pass  # (an intarsia course: its regions' yarns end in `_end_regions`)
         elif t.flags[chunk[-1]] & tr.END:
             tail_pos = cast.tail(ctx, left, last_dir) if left >= 0 else None
             cast.yarn_end(ctx, tail_pos, left if left >= 0 else int(ids[-1]))
@@ -1004,7 +1004,7 @@ tests/test_fast_routes.py holds the short cuts to (the same ops, op for op)."""
 def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int, int]) -> None:
     g = gen.g
     stitches = gen.t.stitch[chunk]
-    if gen.region.size and gen.region[stitches[0]] >= 0:
+    if gen.intarsia.size and gen.intarsia[g.course[stitches[0]]]:
         _intarsia_pass(gen, chunk)
         return
     if (  # (a part of a fair isle course may hold only another yarn's stitches)
@@ -1177,59 +1177,54 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
 
 def _intarsia_pass(gen: _Gen, chunk: np.ndarray) -> None:
     """A part of an intarsia course (thesis ch. 6.9.6): each run of one region's stitches
-    knitted by that region's carrier (brought in on its first course), in the course's
-    direction, so each region's carrier goes back and forth over its own stitches. Where a
-    run meets the next one, its yarn tucks on the next run's first needle before turning
-    (the intarsia tuck join): the next run's stitch knits that loop in, and the two yarns
-    are linked at every course, so the wall between the regions is not a slit. The join
-    comes from the side the course arrives from, so a wall's tucks alternate sides."""
-    g = gen.g
+    knitted by the region's local yarn, a strand of the trace (tracing's R7 starts it on
+    the region's first course; its carrier comes in then, over the loops below), in the
+    order and directions the trace visits them: each region's yarn goes back and forth
+    over its own stitches. Where the trace flags a run's last visit JOIN, its yarn tucks
+    on the next run's first needle before turning (the intarsia tuck join): the next run's
+    stitch knits that loop in, and the two yarns are linked at every course, so the wall
+    between the regions is not a slit. The join comes from the side the course arrives
+    from, so a wall's tucks alternate sides."""
+    g, t = gen.g, gen.t
     assert g.yarn is not None
-    course = int(g.course[gen.t.stitch[chunk[0]]])
-    wrap = False
-    if g.course_circular[course]:
-        # a round: every region turns at its walls, so the runs go around one way on the
-        # band's even courses and back the other way on its odd ones, starting at a wall.
-        # The round's slices (one per bed) are knitted together, after the last one's
-        # shaping, provided it left the loops below where the round knits them.
+    course = int(g.course[t.stitch[chunk[0]]])
+    circular = bool(g.course_circular[course])
+    if circular:
+        # A round's slices (one per bed and run) are knitted together, after the last
+        # one's shaping, provided it left the loops below where the round knits them.
         gen.round_parts.append(chunk)
         chunk = np.concatenate(gen.round_parts)
         if len(chunk) < int(g.course_len[course]):
             return
         gen.round_parts = []
-        for s in gen.t.stitch[chunk].tolist():
+        for s in t.stitch[chunk].tolist():
             at = [gen.bed.where.get(int(p)) for p in g.wale_prev[s] if p >= 0]
             if any(pos != gen.positions[s] for pos in at):
                 raise Unsupported(
                     "the slices of an intarsia round moved its loops",
                     hint="keep the intarsia band's courses unshaped on a tube",
                 )
-    stitches = gen.t.stitch[chunk]
-    reg = gen.region[stitches]
+    stitches = t.stitch[chunk]
+    strands = t.yarn[chunk]
     dirs = gen.dirs[chunk]
     dirs = np.where(dirs == 0, 1, dirs)
-    if g.course_circular[course]:
-        walls = np.nonzero(reg != np.roll(reg, 1))[0]
-        order = np.arange(len(stitches))
-        if walls.size:
-            order = np.roll(order, -int(walls[0]))
-            wrap = True
-        if gen.region_course[course] % 2:
-            order = order[::-1]
-            dirs = -dirs
-        stitches, reg, dirs = stitches[order], reg[order], dirs[order]
     numbers = gen.opts.numbers
     halves = g.course_gauge[g.course[stitches]] == 2
     plain = np.where(halves, numbers.knit_half_gauge, numbers.knit)
     if gen.bed.rack:
         gen.bed.set_rack(0)
-    runs = np.split(np.arange(len(stitches)), np.nonzero(np.diff(reg) != 0)[0] + 1)
+    runs = np.split(np.arange(len(stitches)), np.nonzero(np.diff(strands) != 0)[0] + 1)
+    if gen.join is not None:  # the previous slice's last run's join, onto this first run
+        arriving, d, by = gen.join
+        gen.join = None
+        _join(gen, arriving, t.stitch[chunk[runs[0][:2]]].tolist(), d, by)
     for i, run in enumerate(runs):
-        r = int(reg[run[0]])
+        strand = int(strands[run[0]])
         first = int(stitches[run[0]])
-        carrier = gen.region_carrier.get(r)
+        carrier = gen.region_carrier.get(strand)
         if carrier is None:  # the region's local yarn (R7), in over the loops below
-            carrier = gen.region_carrier[r] = _take_carrier(gen, gen.free, int(g.yarn[first]))
+            carrier = _take_carrier(gen, gen.free, int(g.yarn[first]))
+            gen.region_carrier[strand] = carrier
             with gen.bed.prog.code_pass("yarn_start"):
                 gen.bed.prog.in_((carrier,), stitch=first, span=_yarn_spans(gen, [first])[first])
         ids = stitches[run].tolist()
@@ -1242,15 +1237,23 @@ def _intarsia_pass(gen: _Gen, chunk: np.ndarray) -> None:
             carrier,
             _yarn_spans(gen, ids),
         )
-        if i + 1 < len(runs) or wrap:  # the tuck join onto the next region's first needle
-            # (or its second, when a decrease or a closed backing left two loops on the
-            # first: a third would strain it)
-            ahead = runs[(i + 1) % len(runs)][:2].tolist()
-            for j in ahead:
-                nxt = int(stitches[j])
-                if gen.bed.loops.get(gen.positions[nxt], 0) <= 1:
-                    _catch(gen, carrier, nxt, int(dirs[run[-1]]), first)
-                    break
+        if t.flags[int(chunk[run[-1]])] & tr.JOIN:
+            d = int(dirs[run[-1]])
+            if i + 1 < len(runs) or circular:
+                ahead = runs[(i + 1) % len(runs)][:2]
+                _join(gen, carrier, stitches[ahead].tolist(), d, first)
+            else:  # (the next run is the next slice's: tucked on once it is placed)
+                gen.join = (carrier, d, first)
+
+
+def _join(gen: _Gen, carrier: int, ahead: list[int], d: int, by: int) -> None:
+    """The intarsia tuck join: the arriving yarn tucks on the next run's first needle (or
+    its second, when a decrease or a closed backing left two loops on the first: a third
+    would strain it), which that run's stitch then knits in."""
+    for nxt in ahead:
+        if gen.bed.loops.get(gen.positions[nxt], 0) <= 1:
+            _catch(gen, carrier, nxt, d, by)
+            break
 
 
 def _inlay_pass(gen: _Gen, chunk: np.ndarray) -> None:
@@ -1296,15 +1299,18 @@ def _inlay_pass(gen: _Gen, chunk: np.ndarray) -> None:
                 bed.carrier_at[carrier] = pos[1] + 0.5 * d
 
 
-def _end_regions(gen: _Gen, course: int) -> None:
-    """After a course: take out the carriers of the intarsia regions it ends."""
-    for r, carrier in list(gen.region_carrier.items()):
-        if gen.region_last[r] != course:
+def _end_regions(gen: _Gen, chunk: np.ndarray) -> None:
+    """After a course: take out the local yarns of the intarsia regions it ends (their
+    strands' last visits, END), each at its region's first stitch of the course."""
+    t = gen.t
+    ending = {int(t.yarn[v]) for v in chunk[(t.flags[chunk] & tr.END) != 0].tolist()}
+    for strand, carrier in list(gen.region_carrier.items()):
+        if strand not in ending:
             continue
-        stitch = int(np.argmax((gen.region == r) & (gen.g.course == course)))
+        stitch = int(t.stitch[chunk][t.yarn[chunk] == strand].min())
         with gen.bed.prog.code_pass("yarn_end"):
             cast.yarn_end(gen.ctx(carrier, stitch), None, stitch)
-        del gen.region_carrier[r]
+        del gen.region_carrier[strand]
         gen.free.append(carrier)
 
 
@@ -1424,7 +1430,9 @@ def _catch_resting(gen: _Gen, ids: np.ndarray, working: int) -> None:
         if at is None or course - since < CATCH_RESTING_EVERY:
             continue
         edge = None
-        for s in (int(ids[0]), int(ids[-1])):
+        # (the course's two ends: an intarsia round's visits start at a wall)
+        start = int(g.course_start[course])
+        for s in (start, start + int(g.course_len[course]) - 1):
             pos = bed.where.get(s)
             if (
                 pos is not None

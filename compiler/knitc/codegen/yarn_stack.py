@@ -158,15 +158,6 @@ def _backed(
     return jacquard & ~bent[g.course]
 
 
-def node_courses(g: StitchGraph) -> np.ndarray:
-    """Per course: its index among its node's courses (a backing's and an intarsia
-    round's course count starts at the node's first course)."""
-    first: dict[int, int] = {}
-    for c, node in enumerate(g.course_node.tolist()):
-        first.setdefault(node, c)
-    return np.arange(g.n_courses) - np.array([first[n] for n in g.course_node.tolist()], np.int64)
-
-
 def region_yarns(g: StitchGraph) -> dict[int, list[int]]:
     """Per node with jacquard stitches: the yarns of those stitches, ascending (every one
     makes a pass in each of the node's jacquard courses)."""
@@ -200,7 +191,7 @@ def _floats(
     if g.backing is not None and two_bed(g.backing).any():
         jacquard_course[g.course[two_bed(g.backing)]] = True
         regions = region_yarns(g)
-    in_region = node_courses(g)
+    in_region = g.node_courses()
     for part in parts:
         stitches = t.stitch[part]
         course = int(g.course[stitches[0]])

@@ -13,7 +13,14 @@ Flags:
   course); anything farther starts a new yarn instead;
 - CARRY: the yarn rested at the side while other yarns knitted stripes, and is carried up
   the edge to this visit, which starts a course at the end where the yarn stopped
-  (`carried`).
+  (`carried`);
+- SHIFT: an intarsia region's local yarn goes on to its region's next run, which does not
+  start next to where it stopped (a wall that moved between courses, or a region with two
+  runs in a course): it floats along its own course or the one below to this visit, in
+  the region's node;
+- JOIN: after this visit, the last of a run of an intarsia region, the yarn tucks on the
+  first needle of the next run of the course (another region's) before it turns back: the
+  tuck join that links the regions across their wall (thesis ch. 6.9.6).
 """
 
 from __future__ import annotations
@@ -25,8 +32,16 @@ import numpy as np
 
 from knitc.shaping.stitch_graph import StitchGraph
 
-START, END, TUCK_PREV, JUMP, CARRY = 1, 2, 4, 8, 16
-FLAG_NAMES = {START: "start", END: "end", TUCK_PREV: "tuck", JUMP: "jump", CARRY: "carry"}
+START, END, TUCK_PREV, JUMP, CARRY, SHIFT, JOIN = 1, 2, 4, 8, 16, 32, 64
+FLAG_NAMES = {
+    START: "start",
+    END: "end",
+    TUCK_PREV: "tuck",
+    JUMP: "jump",
+    CARRY: "carry",
+    SHIFT: "shift",
+    JOIN: "join",
+}
 
 
 @dataclass
@@ -95,6 +110,17 @@ def near(g: StitchGraph, a: int, b: int) -> bool:
     )
 
 
+def shifted(g: StitchGraph, a: int, b: int) -> bool:
+    """A justified SHIFT from stitch a to b: b is in a's node, on a's course or on a course
+    whose stitch b sits above a stitch of a's course (the yarn floats along that course)."""
+    if g.node[a] != g.node[b]:
+        return False
+    if g.course[a] == g.course[b]:
+        return True
+    parent = int(g.wale_prev[b, 0])
+    return parent >= 0 and g.course[parent] == g.course[a]
+
+
 def carried(g: StitchGraph, a: int, b: int) -> int:
     """How many courses a yarn rests when it is carried up the side from stitch a, the last
     of a course, to stitch b, the first of a later one (-1: not a carry). b must start at
@@ -119,6 +145,19 @@ def carried(g: StitchGraph, a: int, b: int) -> int:
     if x == a or neighbours(g, a, x) or (circular and (x == first or neighbours(g, first, x))):
         return steps - 1
     return -1
+
+
+def sweeps(g: StitchGraph, stitch: np.ndarray, yarn: np.ndarray) -> np.ndarray:
+    """Per visit, the group whose steps set each other's carriage direction
+    (`carriage_dirs`): its strand's, except that the visits of an intarsia course are one
+    group of their own. The course's runs, one per region's local yarn, are knitted in one
+    sweep of the carriage, so a run of a single stitch goes the course's way, not the way
+    its yarn goes on the next course."""
+    band = g.intarsia_courses()
+    if yarn.size == 0 or not band.any():
+        return yarn
+    on = band[g.course[stitch]]
+    return np.where(on, int(yarn.max()) + 1 + g.course[stitch], yarn).astype(np.int64)
 
 
 def carriage_dirs(g: StitchGraph, stitch: np.ndarray, yarn: np.ndarray) -> np.ndarray:
@@ -196,7 +235,8 @@ def verify(g: StitchGraph, t: Trace) -> list[str]:
         same_yarn = yn[:-1] == yn[1:]
         jump = (fl[1:] & JUMP) != 0
         carry = (fl[1:] & CARRY) != 0
-        ok = _neighbours(g, a, b) | jump | carry
+        shift = (fl[1:] & SHIFT) != 0
+        ok = _neighbours(g, a, b) | jump | carry | shift
         bad = same_yarn & ~ok
         if np.any(bad):
             i = int(np.nonzero(bad)[0][0])
@@ -209,6 +249,13 @@ def verify(g: StitchGraph, t: Trace) -> list[str]:
                 problems.append(
                     f"yarn {int(yn[i])} jumps from stitch {int(a[i])} to "
                     f"{int(b[i])}, which is not a neighbouring needle"
+                )
+                break
+        for i in np.nonzero(same_yarn & shift)[0][:10000]:
+            if not shifted(g, int(a[i]), int(b[i])):
+                problems.append(
+                    f"yarn {int(yn[i])} shifts from stitch {int(a[i])} to {int(b[i])}, "
+                    "which is not on its course or the next one of its node"
                 )
                 break
         for i in np.nonzero(same_yarn & carry)[0][:10000]:

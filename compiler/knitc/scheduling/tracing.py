@@ -10,8 +10,9 @@ Two tracers produce the same IR:
 - `trace_rules`, the rule-based procedure of Narayanan et al. used by the thesis (R1 start
   yarn, R2 next row, R3 continue, R4 tuck and turn, R5 end short row, R6 end yarn), with
   single or double tracing (`passes=2`: every stitch visited twice, which lets one carrier
-  knit any short-row structure). R7/R8 (local yarns for intarsia) are hooks: `yarn_of`
+  knit any short-row structure). Its R7/R8 (local yarns for intarsia) are hooks: `yarn_of`
   may assign a stitch to another yarn, which then starts and ends where its stitches do.
+  The default tracer has R7 itself, for intarsia courses (`_Locals`).
   It works on any stitch graph, including ones not made by the shape pass.
 """
 
@@ -78,19 +79,31 @@ def _trace_stripes(g: StitchGraph, carry_up: Sequence[int]) -> tr.Trace:
     on one carrier) of its own yarn. The strand that knitted the course below goes on as
     usual; one that rested while other yarns knitted is carried up the side (CARRY) when
     the course starts at the edge where it stopped and it rested at most `carry_up`
-    courses (`trace.carried`). Otherwise a new strand of that yarn starts."""
+    courses (`trace.carried`). Otherwise a new strand of that yarn starts.
+
+    An intarsia course (`StitchGraph.intarsia_courses`) is traced region by region
+    (`_intarsia_course`): the strand of the course below is *pending*, resting at the
+    side, while each region's local yarn knits its run."""
     n = g.n_stitches
     assert g.yarn is not None
     design = g.course_yarn()
-    yarn = np.zeros(n, np.int16)
-    flags = np.zeros(n, np.uint8)
+    intarsia = design == len(g.yarn_names)
+    yarn = np.zeros(n, np.int16)  # per stitch (one visit each): its strand
+    flags = np.zeros(n, np.uint8)  # per stitch: its visit's flags
     last_of: list[int] = []  # strand -> its last stitch
-    of_yarn: list[int] = []  # strand -> the design's yarn it is
+    of_yarn: list[int] = []  # strand -> the design's yarn it is (-1: a region's local yarn)
     joins: list[tuple[int, int]] = []
+    visits: list[np.ndarray] = []  # per course, its stitches in visiting order
+    local = _Locals(g, last_of, of_yarn) if intarsia.any() else None
     for c in range(g.n_courses):
         ids = g.course_ids(c)
         if ids.size == 0:
             continue
+        if intarsia[c]:
+            assert local is not None
+            visits.append(local.course(c, yarn, flags))
+            continue
+        visits.append(ids)
         first = int(ids[0])
         want = int(design[c])
         chosen, flag = -1, 0
@@ -120,13 +133,76 @@ def _trace_stripes(g: StitchGraph, carry_up: Sequence[int]) -> tr.Trace:
                 joins.append((first, last_of[chosen]))
         yarn[ids] = chosen
         last_of[chosen] = int(ids[-1])
-    stitch = np.arange(n, dtype=np.int32)
-    dirs = tr.carriage_dirs(g, stitch, yarn)
+    stitch = np.concatenate(visits).astype(np.int32) if visits else np.zeros(0, np.int32)
+    strands = yarn[stitch]
+    dirs = tr.carriage_dirs(g, stitch, tr.sweeps(g, stitch, strands))
+    dir_of = np.zeros(n, np.int8)
+    dir_of[stitch] = dirs
     for first, prev in joins:
-        if g.side[first] == g.side[prev] and dirs[first] != dirs[prev]:
+        if g.side[first] == g.side[prev] and dir_of[first] != dir_of[prev]:
             flags[first] |= tr.TUCK_PREV
-    tr.start_end_flags(yarn, flags)
-    return tr.Trace(stitch, yarn, dirs, flags, passes=1, method="courses")
+    out = flags[stitch]
+    tr.start_end_flags(strands, out)
+    return tr.Trace(stitch, strands, dirs, out, passes=1, method="courses")
+
+
+class _Locals:
+    """The local yarns of intarsia regions (thesis ch. 6.9.6, rule R7): a region's first
+    run starts a new strand, which goes on through the region's runs of later courses and
+    ends after its last; the strand of the course below is pending meanwhile (it is no
+    candidate for a region, and `_rested` sees it rest)."""
+
+    def __init__(self, g: StitchGraph, last_of: list[int], of_yarn: list[int]) -> None:
+        from knitc.shaping.intarsia import regions
+
+        self.g, self.last_of, self.of_yarn = g, last_of, of_yarn
+        self.region = regions(g)
+        self.in_node = g.node_courses()
+        self.strand: dict[int, int] = {}  # region -> its local yarn
+
+    def course(self, c: int, yarn: np.ndarray, flags: np.ndarray) -> np.ndarray:
+        """Trace intarsia course `c` (strands into `yarn`, flags into `flags`, per stitch)
+        and return its stitches in visiting order. A flat course is visited in course
+        order; a round starts at a wall and goes around one way on its node's even courses
+        and back the other way on its odd ones, so each region's yarn goes back and forth
+        over its own stitches. The last visit of every run but a flat course's last is
+        flagged JOIN (its yarn tucks on the next run's first needle)."""
+        g = self.g
+        ids = g.course_ids(c)
+        reg = self.region[ids]
+        circular = bool(g.course_circular[c])
+        if circular:
+            walls = np.nonzero(reg != np.roll(reg, 1))[0]
+            if walls.size:
+                ids, reg = np.roll(ids, -int(walls[0])), np.roll(reg, -int(walls[0]))
+            if self.in_node[c] % 2:
+                ids, reg = ids[::-1], reg[::-1]
+        runs = np.split(np.arange(ids.size), np.nonzero(np.diff(reg) != 0)[0] + 1)
+        for k, run in enumerate(runs):
+            first, last = int(ids[run[0]]), int(ids[run[-1]])
+            r = int(reg[run[0]])
+            strand = self.strand.get(r, -1)
+            flag = 0
+            if strand >= 0:
+                a = self.last_of[strand]
+                if tr.neighbours(g, a, first):
+                    flag = 0
+                elif tr.near(g, a, first):
+                    flag = tr.JUMP
+                elif tr.shifted(g, a, first):
+                    flag = tr.SHIFT
+                else:
+                    strand = -1  # (no way to carry it there: a new local yarn)
+            if strand < 0:  # R7: start a local yarn for the region
+                strand = self.strand[r] = len(self.last_of)
+                self.last_of.append(-1)
+                self.of_yarn.append(-1)
+            flags[first] |= flag
+            yarn[ids[run]] = strand
+            self.last_of[strand] = last
+            if len(runs) > 1 and (k + 1 < len(runs) or circular):
+                flags[last] |= tr.JOIN
+        return ids
 
 
 def _rested(g: StitchGraph, design: np.ndarray, ca: int, c: int, want: int) -> bool:

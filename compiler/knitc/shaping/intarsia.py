@@ -4,8 +4,9 @@ In an intarsia course (`intarsia where Q`) no yarn floats behind another's stitc
 course falls into *runs*, maximal stretches of stitches of one yarn, and each run is
 knitted by a carrier of its own. A run continues the run of the same yarn below it (a wale
 joins them), so runs connected that way through the band are one *region*, knitted by one
-carrier from the region's first course to its last: the thesis' local yarn (rule R7),
-brought in where the region starts and taken out where it ends. Two regions of the same
+carrier from the region's first course to its last: the thesis' local yarn (rule R7,
+`scheduling.tracing._Locals`: a strand of the trace per region), brought in where the
+region starts and taken out where it ends. Two regions of the same
 yarn side by side (the background left and right of a motif) are two carriers.
 
 A region whose runs fork around another region (a U of one yarn) knits both arms with its

@@ -190,6 +190,15 @@ class StitchGraph:
         several[self.course[self.yarn != first]] = True
         return out & several
 
+    def node_courses(self) -> np.ndarray:
+        """int64 per course: its index among its node's courses (a backing's course count,
+        and an intarsia round's direction, start at the node's first course)."""
+        first: dict[int, int] = {}
+        nodes = self.course_node.tolist()
+        for c, node in enumerate(nodes):
+            first.setdefault(node, c)
+        return np.arange(self.n_courses) - np.array([first[n] for n in nodes], np.int64)
+
     @property
     def n_stitches(self) -> int:
         return int(self.node.shape[0])
