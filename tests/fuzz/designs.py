@@ -4,7 +4,8 @@
 of sheets, tubes, joints and splits with consistent sizes, `-D` overrides, casting, starts)
 and adds what that generator leaves out: pattern layers with every statement kind (`set`,
 `use`, `apply`, `draw`/`stretch`/`tile`, `let`, `knit YARN` and the `std.colour` charts,
-with yarns declared on free, shared or the main carrier) over random queries (every query of the
+`backing KIND` and `intarsia`, with yarns declared on free, shared or the main carrier, some
+plated or laid in) over random queries (every query of the
 language's table, chained and combined, with ranges of every form), imported stdlib
 patterns with random arguments, user actions (every machine operation, `if`/`for`), user
 shapers on extra shaped pieces, and a `machine` block. Values are drawn from in-range and
@@ -29,6 +30,7 @@ ACTIONS = ["knit", "purl", "tuck", "miss", "kickback", "split"]
 STD_PATTERNS = {m: stdlib_patterns(m) for m in ("std.stitches", "std.motifs")}
 STD_COLOUR = ["peerie", "checks", "diamonds"]
 YARNS = ["main", "red", "blue"]
+BACKINGS = ["float", "tubular", "birdseye", "pique", "horizontal", "vertical", "none", "nope"]
 STD_SHAPERS = ["zigzag", "edges"]
 _HOSTILE = ["1e999", "10^20", "10^400", "1e-320", "0.0", "1e300 * 10", "0 - 10^30"]
 NUMBERS = st.integers(0, 63).flatmap(
@@ -113,7 +115,13 @@ def _predicate(draw) -> str:
 
 def _pattern_stmt(draw, nodes: list[str], actions: list[str], pats: list[tuple[str, str]]) -> str:
     where = "" if draw(st.integers(0, 4)) == 0 else f" where {_query(draw, nodes)}"
-    kind = draw(st.sampled_from(["set", "set", "set", "use", "apply", "draw", "let", "knit"]))
+    kind = draw(
+        st.sampled_from(["set", "set", "set", "use", "apply", "draw", "let", "knit", "colour"])
+    )
+    if kind == "colour":  # jacquard (E719 on a full-gauge tube), intarsia (E730, E731, E732)
+        if draw(st.booleans()):
+            return f"backing {draw(st.sampled_from(BACKINGS))}{where}"
+        return f"intarsia{where}"
     if kind == "knit":  # stripes, fair isle, or a mixed course it refuses (E711)
         if draw(st.integers(0, 2)) == 0:
             chart = draw(st.sampled_from(STD_COLOUR))
@@ -265,7 +273,11 @@ def designs(draw) -> Design:
         items.insert(0, "import std.colour")
         for name in YARNS[1:]:
             carrier = draw(st.sampled_from(["", "carrier: 5", "carrier: 6", "carrier: 3"]))
-            extra = draw(st.sampled_from(["", "carry_up: 0", "carry_up: 3", "tuck_every: 4"]))
+            extra = draw(
+                st.sampled_from(
+                    ["", "carry_up: 0", "carry_up: 3", "tuck_every: 4", "plating: 8", "inlay: 3"]
+                )
+            )
             items.append(f"yarn {name} {{ {carrier}  {extra} }}")
     order = list(draw(st.permutations(items[1:])) if draw(st.booleans()) else items[1:])
     if "#n" in "".join(order):

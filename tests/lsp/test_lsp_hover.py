@@ -315,6 +315,9 @@ def test_hover_on_the_colourwork_statements():
         got = hover_text(a, needle, 2)
         assert got is not None and got.startswith(f"**`{word}`** — keyword"), got
         assert f"`{word} " in got
+    got = hover_text(a, "birdseye", 2)  # a backing's word says what it does
+    assert got is not None and got.startswith("**`birdseye`** — jacquard backing"), got
+    assert "checkerboard" in got
 
 
 def test_hover_on_a_yarn_of_a_stale_module():

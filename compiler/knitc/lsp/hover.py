@@ -467,6 +467,11 @@ def _values_text(spec: sk.PropSpec) -> str:
 
 
 def _on_instruction(a: Analysis, node: ast.Node, path: list[ast.Node], word: _Word) -> str | None:
+    if isinstance(node, ast.BackingStmt) and _fits(a, word, node.kind.span, node.kind.name):
+        from knitc.lsp.completion import BACKING_DOCS
+
+        doc = BACKING_DOCS.get(node.kind.name)
+        return f"**`{node.kind.name}`** — jacquard backing\n\n{doc}" if doc else None
     if isinstance(node, ast.GridCell) and _fits(a, word, node.span, node.text):
         return instruction_markdown(node.text) if node.text in INSTRUCTIONS else None
     if isinstance(node, ast.SetStmt) and word.text == node.instr:
