@@ -89,6 +89,26 @@ def test_regions_follow_the_yarns(text):
     assert (reg[a][same] == reg[b][same]).all()
 
 
+def assert_one_local_yarn_per_region(r) -> None:
+    """Each region is visited by one strand, which visits nothing else, starting on the
+    region's first course and ending on its last."""
+    g, t = r.graph, r.trace
+    reg = regions(g)
+    strand_of = np.full(g.n_stitches, -1, np.int64)
+    strand_of[t.stitch] = t.yarn
+    for k in np.unique(reg[reg >= 0]).tolist():
+        mine = reg == k
+        strands = set(strand_of[mine].tolist())
+        assert len(strands) == 1, (k, strands)
+        (strand,) = strands
+        assert (mine == (strand_of == strand)).all()  # its stitches and no others
+        visits = np.nonzero(t.yarn == strand)[0]
+        assert t.flags[visits[0]] & tr.START and t.flags[visits[-1]] & tr.END
+        courses = g.course[mine]
+        assert g.course[t.stitch[visits[0]]] == courses.min()
+        assert g.course[t.stitch[visits[-1]]] == courses.max()
+
+
 @settings(max_examples=40, derandomize=True, deadline=None)
 @given(intarsia())
 def test_tracing_starts_a_local_yarn_for_each_region_and_slicing_splits_where_it_changes(text):
@@ -100,20 +120,7 @@ def test_tracing_starts_a_local_yarn_for_each_region_and_slicing_splits_where_it
     r = compile_source(text, "i.knit", until="schedule", verify=True)
     g, t, sl = r.graph, r.trace, r.slices
     assert g is not None and t is not None and sl is not None, text + r.diagnostics.render()
-    reg = regions(g)
-    strand_of = np.full(g.n_stitches, -1, np.int64)
-    strand_of[t.stitch] = t.yarn
-    for k in np.unique(reg[reg >= 0]).tolist():
-        mine = reg == k
-        strands = set(strand_of[mine].tolist())
-        assert len(strands) == 1, (k, strands, text)
-        (strand,) = strands
-        assert (mine == (strand_of == strand)).all(), text  # its stitches and no others
-        visits = np.nonzero(t.yarn == strand)[0]
-        assert t.flags[visits[0]] & tr.START and t.flags[visits[-1]] & tr.END
-        courses = g.course[mine]
-        assert g.course[t.stitch[visits[0]]] == courses.min()
-        assert g.course[t.stitch[visits[-1]]] == courses.max()
+    assert_one_local_yarn_per_region(r)
     band = g.intarsia_courses()
     visit_course = g.course[t.stitch]
     for c in range(g.n_courses):
@@ -159,6 +166,19 @@ DESIGNS = {
     + "tube t { length: 16, width: 12 }\n"
     + "pattern t {\n  knit red where courses(4:10) and wales(0.3:0.7) and side(front)\n"
     + "  intarsia where courses(4:10)\n}\n",
+    # a band going on from one tube into the next, whose course count starts again: each
+    # region keeps its yarn (the round that continues it goes the other way round)
+    "tube-into-tube": TWO
+    + "tube a { length: 7, width: 10 }\ntube b { length: 8, width: 10 }\na.top -> b.bottom\n"
+    + "pattern a {\n  knit red where courses(2:6) and wales(0.3:0.6) and side(front)\n"
+    + "  intarsia where courses(2:6)\n}\n"
+    + "pattern b {\n  knit red where courses(0:4) and wales(0.3:0.6) and side(front)\n"
+    + "  intarsia where courses(0:4)\n}\n",
+    # an inlay over an intarsia round: laid once the round is knitted, onto its new loops
+    "tube-inlay": TWO
+    + "yarn elastic { carrier: 7, inlay: 2 }\ntube s { length: 12, width: 10 }\n"
+    + "pattern s {\n  knit red where courses(3:7) and wales(0.3:0.6) and side(front)\n"
+    + "  knit elastic where courses(4:5)\n  intarsia where courses(3:7)\n}\n",
     "tube-two-faces": THREE
     + "tube t { length: 16, width: 10, gauge: half }\n"
     + "pattern t {\n  knit red where courses(3:10) and wales(0.2:0.5) and side(front)\n"
@@ -193,6 +213,21 @@ def test_each_region_has_its_own_carrier_in_once_and_out_once():
         op for op in ops if op.phase == "float_catch" and op.kind == "tuck" and op.carriers[0] != 3
     ]  # (main's own are its catches into the edge while it rests)
     assert len(joins) == 2 * 8  # two walls, one tuck join each, eight courses
+
+
+def test_a_band_into_the_next_tube_keeps_each_regions_yarn():
+    r = _compiled("tube-into-tube")
+    assert_one_local_yarn_per_region(r)
+
+
+def test_an_inlay_over_an_intarsia_round_tucks_on_the_rounds_new_loops():
+    r = _compiled("tube-inlay")
+    knitted: set[int] = set()
+    for op in r.program.ops:
+        if op.kind == "knit" and op.stitch >= 0:
+            knitted.add(op.stitch)
+        elif op.kind == "tuck" and 7 in op.carriers and op.stitch >= 0:
+            assert op.stitch in knitted, op  # (its stitch is knitted first)
 
 
 def test_each_region_carrier_knits_only_its_own_region():

@@ -183,18 +183,13 @@ def _schedule(r: Result) -> bool:
 
 
 def _stack(r: Result) -> bool:
+    from knitc.codegen.generate import options_from_skeleton
     from knitc.codegen.yarn_stack import stack_yarns
 
     assert r.skeleton is not None and r.graph is not None
     assert r.schedule is not None and r.trace is not None
-    yarns = r.skeleton.yarn_list
-    r.stacks = stack_yarns(
-        r.graph,
-        r.trace,
-        r.schedule,
-        tuple(y.tuck_every for y in yarns),
-        tuple(y.inlay for y in yarns),
-    )
+    opts = options_from_skeleton(r.skeleton)  # (the ones code generation reads too)
+    r.stacks = stack_yarns(r.graph, r.trace, r.schedule, opts.yarn_tuck_every, opts.yarn_inlay)
     return True
 
 

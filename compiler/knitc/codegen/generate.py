@@ -224,8 +224,6 @@ class _Gen:
     region_yarns: dict[int, list[int]] = field(default_factory=dict)
     """Node -> the yarns of its jacquard stitches, ascending: each knits every jacquard
     course of the node, its back needles at least."""
-    region_course: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
-    """Per course: its index among its node's courses (a backing's `y`)."""
     intarsia: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     """Per course: an intarsia course, knitted by the local yarns of its regions (`_intarsia_pass`)."""
     region_carrier: dict[int, int] = field(default_factory=dict)
@@ -283,7 +281,6 @@ class _Gen:
                 self.jacquard = np.zeros(g.n_courses, bool)
                 self.jacquard[g.course[jacquard]] = True
                 self.region_yarns = stk.region_yarns(g)
-                self.region_course = g.node_courses()
                 self.backed_list = self.stacks.backed.tolist()
                 self.kid_list = g.wale_next.max(axis=1).tolist()
                 for c in np.nonzero(self.jacquard)[0].tolist():
@@ -322,6 +319,7 @@ def generate(
     opts = options or CodegenOptions()
     if stacks is None:
         stacks = stk.stack_yarns(g, t, sched, opts.yarn_tuck_every, opts.yarn_inlay)
+    assert stacks.front.shape[0] == g.n_stitches, "yarn stacks of another stitch graph"
     gen = _Gen(g, sched, t, carriers, Bed(g, prog, machine.racking_limit), opts, diags, stacks)
     try:
         _run(gen)
@@ -477,11 +475,8 @@ def _run(gen: _Gen) -> None:
     plates = {c for c in gen.opts.yarn_plating if c is not None}  # (no strand's own)
     every = range(1, gen.bed.prog.machine.carriers + 1)
     free = gen.free = list(dict.fromkeys(c for c in (*gen.carriers, *every) if c not in plates))
-    course_of_visit = g.course[t.stitch]
-    course_cuts = np.nonzero(np.diff(course_of_visit) != 0)[0] + 1
     slices = gen.sched.slices
-    cuts = np.union1d(course_cuts, slices.visit[1:])
-    course_bounds = np.r_[0, course_cuts, t.n_visits]
+    cuts, course_bounds = stk.part_cuts(g, t, gen.sched)
     placements = sc.placements(g, gen.sched)
     slice_starts = set(slices.visit.tolist())
     ci = 0  # index of the current course in course_bounds
@@ -532,9 +527,9 @@ def _run(gen: _Gen) -> None:
         with prog.code_pass("shaping"):
             primary.update(_shaping(gen, sub))
         with prog.code_pass("action"):
-            _action_pass(gen, ctx, sub, primary)
-            if gen.g.inlay is not None:
-                _inlay_pass(gen, sub)
+            knitted = _action_pass(gen, ctx, sub, primary)
+            if gen.g.inlay is not None and knitted.size:  # (an intarsia round: once whole)
+                _inlay_pass(gen, knitted)
         # the yarn has caught on the first part's stitches: the catching tucks go before the
         # next slice's shaping can need their needles
         _drop_catch(gen)
@@ -650,14 +645,13 @@ def _finish_course(
     if gen.course_yarn.size:
         _catch_resting(gen, ids, carrier)
     with prog.code_pass("yarn_end"):
-        if carrier == NO_CARRIER:
-            pass  # (an intarsia course: its regions' yarns end in `_end_regions`)
-        elif t.flags[chunk[-1]] & tr.END:
+        # (an intarsia course, NO_CARRIER: its regions' yarns end in `_end_regions`)
+        if carrier != NO_CARRIER and t.flags[chunk[-1]] & tr.END:
             tail_pos = cast.tail(ctx, left, last_dir) if left >= 0 else None
             cast.yarn_end(ctx, tail_pos, left if left >= 0 else int(ids[-1]))
             del gen.carrier_of[int(t.yarn[chunk[-1]])]
             free.append(carrier)  # reuse carriers last: a carrier brought back keeps its yarn
-        elif left >= 0:
+        elif carrier != NO_CARRIER and left >= 0:
             _tail_and_drop(ctx, left, last_dir)
 
 
@@ -1001,12 +995,15 @@ stitch of every pass is an Action run by `run_actions`: the general route, which
 tests/test_fast_routes.py holds the short cuts to (the same ops, op for op)."""
 
 
-def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int, int]) -> None:
+def _action_pass(
+    gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int, int]
+) -> np.ndarray:
+    """The main steps of a course part; the visits knitted (the part, but for an intarsia
+    round: none until its last part, then the whole round)."""
     g = gen.g
     stitches = gen.t.stitch[chunk]
     if gen.intarsia.size and gen.intarsia[g.course[stitches[0]]]:
-        _intarsia_pass(gen, chunk)
-        return
+        return _intarsia_pass(gen, chunk)
     if (  # (a part of a fair isle course may hold only another yarn's stitches)
         gen.course_yarn.size
         and g.yarn is not None
@@ -1017,7 +1014,7 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
         )
     ):
         _fair_isle_pass(gen, ctx, chunk)
-        return
+        return chunk
     incs = _increases(gen, chunk, primary)
     ids = stitches.tolist()
     for s in ids:
@@ -1054,7 +1051,7 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
             _lead_out(gen, ctx, chunk)
         if gen.bed.rack:
             gen.bed.set_rack(0)
-        return
+        return chunk
     # A pass with some actions is still mostly plain knits: those stitches are kept as
     # (stitch, direction, needle, number, empty-needle number), not as an Action each, and
     # knitted in their place among the main steps, each run of them in one `Bed.knit_run`
@@ -1081,7 +1078,7 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
         _run_mixed(gen, ctx, items, acts, chunk)
         if gen.bed.rack:  # a user action's transfers may leave the machine racked
             gen.bed.set_rack(0)
-        return
+        return chunk
     acts = [  # per bed: every stitch an Action, so the parts split where the beds change
         a if isinstance(a, Action) else Action(a[0], main=[partial(_knit, gen, ctx, *a[:4])])
         for a in items
@@ -1093,6 +1090,7 @@ def _action_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray, primary: dict[int,
         run_actions(part)
     if gen.bed.rack:  # a user action's transfers may leave the machine racked
         gen.bed.set_rack(0)
+    return chunk
 
 
 def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
@@ -1126,7 +1124,7 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
         # quarter pitch: a yarn knits a front needle and the back one behind it in one
         # pass (all-needle knitting; a Shima row holds both in one column only so)
         gen.bed.set_rack(QUARTER)
-    for y in [base] + sorted(yarns - {base}):
+    for y in stk.pass_order(base, yarns):
         sel = ys == y
         back = None
         if y in region:  # (a jacquard yarn: the back needles it knits in its pass)
@@ -1148,7 +1146,10 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
             at = np.nonzero(sel)[0]
             cuts: dict[int, list[int]] = {}  # index of the yarn's next knit -> its catches
             for c in np.sort(place[tucks & (owner == y)]).tolist():
-                cuts.setdefault(int(at[np.searchsorted(at, c)]), []).append(c)
+                j = int(np.searchsorted(at, c))
+                if j == len(at):  # (the stacks put a catch past the yarn's last knit)
+                    raise Unsupported(f"a float catch of yarn {y} on stitch {int(stitches[c])}")
+                cuts.setdefault(int(at[j]), []).append(c)
             start_j = 0
             for j in range(len(at) + 1):  # runs of the yarn's knits, a catch between two
                 if j < len(at) and int(at[j]) not in cuts:
@@ -1175,7 +1176,7 @@ def _fair_isle_pass(gen: _Gen, ctx: cast.Ctx, chunk: np.ndarray) -> None:
         gen.bed.set_rack(0)
 
 
-def _intarsia_pass(gen: _Gen, chunk: np.ndarray) -> None:
+def _intarsia_pass(gen: _Gen, chunk: np.ndarray) -> np.ndarray:
     """A part of an intarsia course (thesis ch. 6.9.6): each run of one region's stitches
     knitted by the region's local yarn, a strand of the trace (tracing's R7 starts it on
     the region's first course; its carrier comes in then, over the loops below), in the
@@ -1187,6 +1188,8 @@ def _intarsia_pass(gen: _Gen, chunk: np.ndarray) -> None:
     from, so a wall's tucks alternate sides."""
     g, t = gen.g, gen.t
     assert g.yarn is not None
+    if t.method != "courses":
+        raise Unsupported("intarsia needs the course tracer's local yarns (tracing rule R7)")
     course = int(g.course[t.stitch[chunk[0]]])
     circular = bool(g.course_circular[course])
     if circular:
@@ -1195,7 +1198,7 @@ def _intarsia_pass(gen: _Gen, chunk: np.ndarray) -> None:
         gen.round_parts.append(chunk)
         chunk = np.concatenate(gen.round_parts)
         if len(chunk) < int(g.course_len[course]):
-            return
+            return chunk[:0]
         gen.round_parts = []
         for s in t.stitch[chunk].tolist():
             at = [gen.bed.where.get(int(p)) for p in g.wale_prev[s] if p >= 0]
@@ -1244,6 +1247,7 @@ def _intarsia_pass(gen: _Gen, chunk: np.ndarray) -> None:
                 _join(gen, carrier, stitches[ahead].tolist(), d, first)
             else:  # (the next run is the next slice's: tucked on once it is placed)
                 gen.join = (carrier, d, first)
+    return chunk
 
 
 def _join(gen: _Gen, carrier: int, ahead: list[int], d: int, by: int) -> None:
@@ -1375,7 +1379,7 @@ def _jacquard_run(
 
 def _close_backing(gen: _Gen, ids: np.ndarray) -> None:
     """After a jacquard course: the backing's loops behind its stitches whose stitch above
-    gets none (`_Gen.backed`: the region ends, or the wale is shaped next) go onto their
+    gets none (`YarnStacks.backed`: the region ends, or the wale is shaped next) go onto their
     stitch's needle, where the stitch above knits them in with its own loop: the back
     layer is closed onto the front, not dropped."""
     g, bed = gen.g, gen.bed
@@ -1401,7 +1405,8 @@ QUARTER = 0.25
 """The racking of a jacquard course's passes (`rack 0.25`, quarter pitch)."""
 
 NO_CARRIER = -1
-"""The carrier of an intarsia band's strand of the trace: none, its regions have theirs."""
+"""The course carrier of an intarsia course: none, each run is knitted by its region's local
+yarn (`_intarsia_pass`)."""
 
 CATCH_RESTING_EVERY = 4
 """A yarn resting at the side while others knit stripes is caught into the edge after
@@ -1422,7 +1427,7 @@ def _catch_resting(gen: _Gen, ids: np.ndarray, working: int) -> None:
     knitting = {working} | {gen.back[y] for y in set(g.yarn[ids].tolist()) if y in gen.back}
     for c in [c for c in gen.caught if c in knitting]:
         del gen.caught[c]
-    resting = ({*gen.carrier_of.values(), *gen.back.values()}) - knitting - {NO_CARRIER}
+    resting = ({*gen.carrier_of.values(), *gen.back.values()}) - knitting
     used: set[Pos] = set()  # one catch per needle and course (a needle holds two loops)
     for carrier in sorted(resting, key=lambda c: (gen.caught.get(c, course), c)):
         since = gen.caught.setdefault(carrier, course)

@@ -29,9 +29,9 @@ pass (its loop is new), on the bed the float runs along, one at least every `tuc
 needles, never beside the yarn's next knit (a tuck there would pull it), and only on a
 stitch with a course above to knit it in.
 
-Entries are parallel numpy arrays sorted by (stitch, yarn, inlay), so a course part's
-entries are one contiguous range when the trace visits stitches in id order, as the
-default tracer does.
+Entries are parallel numpy arrays sorted by (stitch, yarn, inlay); a course part finds its
+own with two binary searches and a membership test (`in_part`), whatever order the trace
+visits its stitches in.
 """
 
 from __future__ import annotations
@@ -92,13 +92,25 @@ class YarnStacks:
         return idx[mine], order[at[mine]]
 
 
+def part_cuts(g: StitchGraph, t: Trace, sched: sc.Schedule) -> tuple[np.ndarray, np.ndarray]:
+    """(cuts, course bounds): the visits where a course or one of the schedule's slices
+    begins, and where each course begins (with 0 and the end)."""
+    course_cuts = np.nonzero(np.diff(g.course[t.stitch]) != 0)[0] + 1
+    cuts = np.union1d(course_cuts, sched.slices.visit[1:])
+    return cuts, np.r_[0, course_cuts, t.n_visits]
+
+
 def course_parts(g: StitchGraph, t: Trace, sched: sc.Schedule) -> list[np.ndarray]:
     """The trace's visits cut where a course or one of the schedule's slices begins: the
     parts code generation knits one after another, each in one pass per yarn."""
-    course_of_visit = g.course[t.stitch]
-    course_cuts = np.nonzero(np.diff(course_of_visit) != 0)[0] + 1
-    cuts = np.union1d(course_cuts, sched.slices.visit[1:])
+    cuts, _ = part_cuts(g, t, sched)
     return [p for p in np.split(np.arange(t.n_visits), cuts) if p.size]
+
+
+def pass_order(base: int, yarns: set[int]) -> list[int]:
+    """The order of the yarns' passes over a course part of several: the course's own yarn
+    first, then the others by number (what a float may be caught on depends on it)."""
+    return [base] + sorted(yarns - {base})
 
 
 def stack_yarns(
@@ -112,6 +124,8 @@ def stack_yarns(
     float catching distance (0: none), `inlay_every[y]` its inlay tuck spacing (0: not an
     inlay yarn), as the `yarn` declarations set them."""
     n = g.n_stitches
+    if t.passes != 1 and (g.colourwork or (g.inlay is not None and bool(g.inlay.any()))):
+        raise ValueError("yarn stacks are made from a single-pass trace (each stitch once)")
     front = np.zeros(n, np.int16) if g.yarn is None else g.yarn.astype(np.int16)
     entries: list[tuple[np.ndarray, int, int, bool]] = []  # (stitches, yarn, mode, inlay)
     backed = np.zeros(n, bool)
@@ -216,7 +230,7 @@ def _floats(
                 region,
             )
         done = np.zeros(len(stitches), bool)  # knitted in this part's earlier passes
-        for y in [base] + sorted(yarns - {base}):
+        for y in pass_order(base, yarns):
             sel = ys == y
             if backs is not None and y in region:
                 knits = backs[region.index(y)]
@@ -331,8 +345,11 @@ def verify(g: StitchGraph, y: YarnStacks) -> list[str]:
     names = max(len(g.yarn_names), 1)
     if y.front.shape != (n,) or y.backed.shape != (n,):
         return [f"stacks for {y.front.shape[0]} stitches, graph has {n}"]
-    if n and (int(y.front.min()) < 0 or int(y.front.max()) >= names):
-        out.append("a front yarn outside the design's yarns")
+    if g.yarn is not None and not (y.front == g.yarn).all():
+        out.append("a front yarn that is not the stitch's yarn")
+    if y.n_entries and (int(y.yarn.min()) < 0 or int(y.yarn.max()) >= names):
+        out.append("a back yarn outside the design's yarns")
+        return out
     if y.n_entries == 0:
         if y.backed.any():
             out.append("a backed stitch with no back knit")

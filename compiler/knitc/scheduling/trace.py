@@ -265,10 +265,33 @@ def verify(g: StitchGraph, t: Trace) -> list[str]:
                     f"{int(b[i])}, which does not start at the edge where it stopped"
                 )
                 break
+    problems += _verify_intarsia_flags(g, t)
     starts = np.count_nonzero(t.flags & START)
     if starts != t.n_yarns:
         problems.append(f"{starts} yarn starts for {t.n_yarns} yarns")
     return problems
+
+
+def _verify_intarsia_flags(g: StitchGraph, t: Trace) -> list[str]:
+    """SHIFT and JOIN only in intarsia courses; a JOIN ends a run: the next visit is of the
+    same course and another yarn, or, after a round's last visit, the round's first is."""
+    flagged = np.nonzero(t.flags & (SHIFT | JOIN))[0]
+    if flagged.size == 0:
+        return []
+    band = g.intarsia_courses()
+    course = g.course[t.stitch]
+    if not band[course[flagged]].all():
+        return ["a SHIFT or JOIN outside an intarsia course"]
+    for i in np.nonzero(t.flags & JOIN)[0].tolist():
+        c = int(course[i])
+        j = i + 1
+        if j == t.n_visits or course[j] != c:  # a course's last visit: a round's wrap
+            if not g.course_circular[c]:
+                return [f"visit {i} joins past the end of flat course {c}"]
+            j = i - int(np.count_nonzero(course[: i + 1] == c)) + 1  # the round's first
+        if t.yarn[j] == t.yarn[i]:
+            return [f"visit {i} joins onto its own yarn's run"]
+    return []
 
 
 def to_json(g: StitchGraph, t: Trace) -> dict[str, Any]:

@@ -4,9 +4,10 @@ Two tracers produce the same IR:
 
 - `trace_courses`, the default: the shape pass already lays every course out in yarn
   order and appends courses in knitting order, so the yarn path is the stitch ids in
-  order; what remains is deciding which yarn knits each course (a course continues a yarn
-  whose last stitch is next to its first, else a new yarn starts), the carriage direction,
-  and tucks where short rows turn. Linear and vectorised per course.
+  order (but for an intarsia round, visited from a wall, `_Locals`); what remains is
+  deciding which yarn knits each course (a course continues a yarn whose last stitch is
+  next to its first, else a new yarn starts), the carriage direction, and tucks where
+  short rows turn. Linear and vectorised per course.
 - `trace_rules`, the rule-based procedure of Narayanan et al. used by the thesis (R1 start
   yarn, R2 next row, R3 continue, R4 tuck and turn, R5 end short row, R6 end yarn), with
   single or double tracing (`passes=2`: every stitch visited twice, which lets one carrier
@@ -164,8 +165,9 @@ class _Locals:
         """Trace intarsia course `c` (strands into `yarn`, flags into `flags`, per stitch)
         and return its stitches in visiting order. A flat course is visited in course
         order; a round starts at a wall and goes around one way on its node's even courses
-        and back the other way on its odd ones, so each region's yarn goes back and forth
-        over its own stitches. The last visit of every run but a flat course's last is
+        and back the other way on its odd ones (or the other way round where only that
+        continues its first run's yarn), so each region's yarn goes back and forth over
+        its own stitches. The last visit of every run but a flat course's last is
         flagged JOIN (its yarn tucks on the next run's first needle)."""
         g = self.g
         ids = g.course_ids(c)
@@ -175,8 +177,12 @@ class _Locals:
             walls = np.nonzero(reg != np.roll(reg, 1))[0]
             if walls.size:
                 ids, reg = np.roll(ids, -int(walls[0])), np.roll(reg, -int(walls[0]))
+            ways = [(ids, reg), (ids[::-1], reg[::-1])]
             if self.in_node[c] % 2:
-                ids, reg = ids[::-1], reg[::-1]
+                ways.reverse()
+            # (the other way round when only it continues the first run's yarn: a band
+            # that goes on into the next tube, whose course count starts again)
+            ids, reg = next((w for w in ways if self._continues(*w)), ways[0])
         runs = np.split(np.arange(ids.size), np.nonzero(np.diff(reg) != 0)[0] + 1)
         for k, run in enumerate(runs):
             first, last = int(ids[run[0]]), int(ids[run[-1]])
@@ -203,6 +209,15 @@ class _Locals:
             if len(runs) > 1 and (k + 1 < len(runs) or circular):
                 flags[last] |= tr.JOIN
         return ids
+
+    def _continues(self, ids: np.ndarray, reg: np.ndarray) -> bool:
+        """Whether the first run of a round visited as `ids` goes on from where its
+        region's yarn stopped (or starts the region)."""
+        strand = self.strand.get(int(reg[0]), -1)
+        if strand < 0:
+            return True
+        a, b = self.last_of[strand], int(ids[0])
+        return tr.neighbours(self.g, a, b) or tr.near(self.g, a, b) or tr.shifted(self.g, a, b)
 
 
 def _rested(g: StitchGraph, design: np.ndarray, ca: int, c: int, want: int) -> bool:

@@ -191,13 +191,15 @@ class StitchGraph:
         return out & several
 
     def node_courses(self) -> np.ndarray:
-        """int64 per course: its index among its node's courses (a backing's course count,
-        and an intarsia round's direction, start at the node's first course)."""
-        first: dict[int, int] = {}
-        nodes = self.course_node.tolist()
-        for c, node in enumerate(nodes):
-            first.setdefault(node, c)
-        return np.arange(self.n_courses) - np.array([first[n] for n in nodes], np.int64)
+        """int64 per course: its index among its node's courses in knitting order (a
+        backing's course count, and an intarsia round's direction, start at the node's
+        first course; another node's courses knitted between do not count)."""
+        seen: dict[int, int] = {}
+        out = np.zeros(self.n_courses, np.int64)
+        for c, node in enumerate(self.course_node.tolist()):
+            out[c] = seen.get(node, 0)
+            seen[node] = out[c] + 1
+        return out
 
     @property
     def n_stitches(self) -> int:
