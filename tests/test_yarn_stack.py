@@ -10,7 +10,8 @@ compiled to the end with every verifier on:
   yarn is behind exactly the stitches it is laid over;
 - float tucks sit on stitches knitted earlier in the part, with a course above, at least
   `tuck_every` needles apart along one bed;
-- code generation does what the stacks say: a catching tuck on the needle of every float
+- code generation does what the stacks say (and random float-catching designs knit as
+  designed on the independent machine): a catching tuck on the needle of every float
   tuck, one back knit (or tuck, on an empty needle) per `knit` entry, and inlay tucks only
   where the stacks put them.
 
@@ -25,6 +26,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from design_helpers import assert_random_designs_knit
 from knitc.cli import main
 from knitc.codegen import yarn_stack as stk
 from knitc.driver import Result, compile_source
@@ -119,6 +121,15 @@ def test_fair_isle_stacks_float_every_other_yarn_and_catch_it_where_codegen_tuck
             here = ("fb"[int(bed[s])], int(needle[s]))
             lo, hi = knitted[s], knitted[int(g.wale_next[s, 0])]
             assert any(lo < i < hi and at == here for i, at in catches), (s, text)
+
+
+@settings(max_examples=2, derandomize=True, deadline=None)
+@given(st.lists(caught(), min_size=4, max_size=4))
+def test_random_float_catching_designs_knit_as_designed(cases):
+    """Four random designs at a time, their floats caught where the stacks say, on the
+    independent machine with the fabric check (jacquard and inlaid ones are held to it in
+    test_jacquard and test_plating)."""
+    assert_random_designs_knit([text for text, _ in cases], "c")
 
 
 @settings(max_examples=25, derandomize=True, deadline=None)

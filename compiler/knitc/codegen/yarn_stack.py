@@ -142,7 +142,7 @@ def stack_yarns(
         parts = course_parts(g, t, sched)
         if colour:
             backed = _backed(g, jacquard, knit_bed, knit_needle)
-            _floats(g, t, parts, positions, backed, knit_needle, tuck_every, entries)
+            _floats(g, t, parts, positions, jacquard, backed, knit_needle, tuck_every, entries)
         if laying:
             _inlays(g, t, parts, inlay_every, entries)
     return _build(front, entries, backed)
@@ -188,6 +188,7 @@ def _floats(
     t: Trace,
     parts: list[np.ndarray],
     positions: list[tuple[int, int]],
+    jacquard: np.ndarray | None,
     backed: np.ndarray,
     knit_needle: np.ndarray,
     tuck_every: Sequence[int],
@@ -202,8 +203,8 @@ def _floats(
     intarsia = course_yarn == len(g.yarn_names)
     jacquard_course = np.zeros(g.n_courses, bool)
     regions: dict[int, list[int]] = {}
-    if g.backing is not None and two_bed(g.backing).any():
-        jacquard_course[g.course[two_bed(g.backing)]] = True
+    if jacquard is not None and jacquard.any():  # (`two_bed(g.backing)`)
+        jacquard_course[g.course[jacquard]] = True
         regions = region_yarns(g)
     in_region = g.node_courses()
     for part in parts:
