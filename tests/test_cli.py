@@ -477,6 +477,41 @@ def test_an_output_through_a_symlink_to_the_input_is_refused(capsys, write, tmp_
     assert (tmp_path / "f.knit").read_text() == GOOD
 
 
+def test_the_process_command_ends_with_its_status_and_all_its_output(capsys, tmp_path):
+    """`knitc` run as a process ends it without the interpreter's teardown
+    (`_process.end`): the exit status, every byte written to stdout (a pipe, so buffered)
+    and stderr, and the output file are all there, as from `main([...])` in process."""
+    good, bad = tmp_path / "good.knit", tmp_path / "bad.knit"
+    good.write_text(GOOD)
+    bad.write_text("tube t { width: }\n")
+    knitc_cmd = [sys.executable, "-m", "knitc"]
+    done = subprocess.run([*knitc_cmd, str(good), "-o", "-"], capture_output=True, text=True)
+    assert main([str(good), "-o", "-"]) == 0
+    assert done.returncode == 0 and done.stdout == capsys.readouterr().out
+    done = subprocess.run([*knitc_cmd, "check", str(bad)], capture_output=True, text=True)
+    assert done.returncode == 1 and "error[E" in done.stderr
+    out = tmp_path / "good.k"
+    done = subprocess.run([*knitc_cmd, str(good), "-o", str(out)], capture_output=True)
+    assert done.returncode == 0 and out.read_text().startswith(";!knitout-2")
+
+
+def test_a_closed_stdout_pipe_ends_quietly(tmp_path):
+    """A reader that goes away (`knitc f.knit -o - | head -1`) is not an error: no
+    traceback, no "Exception ignored" from a last flush."""
+    good = tmp_path / "good.knit"
+    good.write_text(GOOD)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "knitc", str(good), "-o", "-"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert proc.stdout is not None and proc.stderr is not None
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait() == 0
+    assert "Traceback" not in err and "Exception ignored" not in err
+
+
 def test_gc_thresholds_batch_only_for_the_process_command_line(tmp_path):
     """A one-shot `knitc` process collects only young cycles (its objects live to its end);
     `main([...])` in a caller's process, and `knitc lsp`, keep the server's thresholds."""
@@ -486,9 +521,10 @@ def test_gc_thresholds_batch_only_for_the_process_command_line(tmp_path):
 
     f = tmp_path / "t.knit"
     f.write_text("tube t { length: 2, width: 4 }\n")
+    # (the process command ends the process itself: what it leaves is seen from atexit)
     code = (
-        f"import gc, sys\nfrom knitc import cli\nsys.argv = ['knitc', 'check', {str(f)!r}]\n"
-        "cli.main()\nprint(gc.get_threshold())\n"
+        f"import atexit, gc, sys\nfrom knitc import cli\nsys.argv = ['knitc', 'check', {str(f)!r}]\n"
+        "atexit.register(lambda: print(gc.get_threshold()))\ncli.main()\nprint('returned')\n"
     )
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, check=True

@@ -15,7 +15,7 @@ import sys
 
 from knitc import (
     __version__,
-    _process,  # noqa: F401  (first: it sets up the process before numpy loads)
+    _process,  # (first: it sets up the process before numpy loads)
 )
 from knitc.diagnostics import Diagnostics
 from knitc.limits import MAX_STITCHES
@@ -697,19 +697,34 @@ def tune_gc(batch: bool = False) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The `knitc` command. Run as the process's own command (no `argv`), a one-shot
+    command ends the process itself (`_process.end`: no interpreter teardown); a caller
+    passing `argv` gets the exit status back, and its process stays its own."""
     one_shot = argv is None  # the process's own command line (a caller's process is theirs)
     argv = list(sys.argv[1:] if argv is None else argv)
+    sub = _subcommand(argv)
+    code = _run(argv, sub, one_shot)
+    if one_shot and (sub is None or argv[sub] != "lsp"):
+        _process.end(code)
+    return code
+
+
+def _subcommand(argv: list[str]) -> int | None:
+    """The index of the subcommand in `argv`, if any: options may come before it (`knitc -D
+    x=1 check f.knit`)."""
+    return next(
+        (
+            i
+            for i, a in enumerate(argv)
+            if a in ("check", "fmt", "k2dat", "dat2k", "view", "lint", "lsp")
+            and (i == 0 or argv[i - 1] not in _VALUED)
+        ),
+        None,
+    )
+
+
+def _run(argv: list[str], sub: int | None, one_shot: bool) -> int:
     try:
-        # Options may come before the subcommand (`knitc -D x=1 check f.knit`).
-        sub = next(
-            (
-                i
-                for i, a in enumerate(argv)
-                if a in ("check", "fmt", "k2dat", "dat2k", "view", "lint", "lsp")
-                and (i == 0 or argv[i - 1] not in _VALUED)
-            ),
-            None,
-        )
         if argv == ["--version"]:  # what argparse would print, without building the parser
             sys.stdout.write(f"knitc {__version__}\n")  # (whose choices need the driver)
             return 0
