@@ -90,9 +90,17 @@ def _compile(tmp: Path, name: str, text: str, runs: int, check: bool = False) ->
     return measure.single(argv, runs=runs, cwd=REPO, env=measure.environ())
 
 
+IMPORT_FLOOR = "import numpy, lark.lark"
+"""What every compile imports before any code of knitc's: its start-up cannot go below a
+Python process that does only this (with one OpenBLAS thread, as the CLI asks for)."""
+
+
 def run_cases(tmp: Path) -> dict[str, dict]:
-    """knitc's own whole-process cases. The 1M tube runs once (about 15 s)."""
+    """knitc's own whole-process cases, and the import floor under the start-up case. The
+    1M tube runs once (about 15 s)."""
     return {
+        "import-floor": measure.single([KNITC.parent / "python", "-c", IMPORT_FLOOR], runs=7,
+                                       cwd=REPO, env=measure.environ(OPENBLAS_NUM_THREADS="1")),
         "check-ten-lines": _compile(tmp, "ten", TEN_LINES, 7, check=True),
         "sheet-100k": _compile(tmp, "sheet-100k", PLAIN, 3),
         "lace-100k": _compile(tmp, "lace-100k", LACE, 3),

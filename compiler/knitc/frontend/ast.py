@@ -90,21 +90,29 @@ class Ident(Node):
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Number(Node):
+    """`12`, `0.5`, `1e3`: a number literal (an int when written as digits only)."""
+
     value: int | float
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class String(Node):
+    """`"red"`: a string literal, its escapes resolved."""
+
     value: str
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Bool(Node):
+    """`true`, `false`."""
+
     value: bool
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class GridCell(Node):
+    """One cell of a drawn grid: an instruction mnemonic as written."""
+
     text: str
 
 
@@ -139,11 +147,15 @@ class Name(Node):
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ListExpr(Node):
+    """`[a, b, ...]`: a list value."""
+
     items: tuple[Expr, ...]
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ProfilePoint(Node):
+    """`t: value`, one point of a profile."""
+
     t: Expr
     value: Expr
 
@@ -157,17 +169,23 @@ class Profile(Node):
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class TupleExpr(Node):
+    """`(a, b, ...)`: a tuple value (the sides of a map statement)."""
+
     items: tuple[Expr, ...]
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Unary(Node):
+    """`-x`, `not x`."""
+
     op: str  # "-" or "not"
     operand: Expr
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Binary(Node):
+    """`a op b` for the arithmetic, comparison and boolean operators."""
+
     op: str  # + - * / % ^ == != < <= > >= and or
     left: Expr
     right: Expr
@@ -184,24 +202,32 @@ class Range(Node):
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class KwArg(Node):
+    """`name: value` in a call's arguments."""
+
     name: Ident
     value: Expr
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Call(Node):
+    """`f(args)`: a call of a stdlib function, a query or a user pattern or shaper."""
+
     func: Expr
     args: tuple[Arg, ...]
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Attr(Node):
+    """`obj.name`: a field of a value (`cuff.top`, `s.course`)."""
+
     obj: Expr
     name: Ident
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Index(Node):
+    """`obj[index]`."""
+
     obj: Expr
     index: Expr
 
@@ -248,12 +274,16 @@ class Import(Node):
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ParamDecl(Node):
+    """`param name = value`: a design parameter, which `-D name=value` overrides."""
+
     name: Ident
     value: Expr
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class MachineDecl(Node):
+    """`machine { ... }`: the machine the design is knitted on."""
+
     props: tuple[Prop, ...]
 
 
@@ -295,12 +325,16 @@ class ItfStmt(Node):
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Connect(Node):
+    """`a.top -> b.bottom`: two interfaces joined into one course of fabric."""
+
     a: ItfRef
     b: ItfRef
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Start(Node):
+    """`start node.itf`: where the yarn starts (the cast-on interface)."""
+
     itf: ItfRef
 
 
@@ -376,6 +410,8 @@ class IntarsiaStmt(Node):
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Let(Node):
+    """`let name = value`: a local name."""
+
     name: Ident
     value: Expr
 
@@ -393,6 +429,8 @@ class PatternLayer(Node):
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class PatternDef(Node):
+    """`pattern name(params) { ... }`: a reusable pattern, applied with `apply`."""
+
     name: Ident
     params: tuple[ParamDef, ...]
     body: tuple[LayerStmt, ...]
@@ -403,17 +441,23 @@ class PatternDef(Node):
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Block(Node):
+    """`{ stmts }`: the body of a shaper, an action step or a branch."""
+
     stmts: tuple[Stmt, ...]
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Assign(Node):
+    """`name = value`: rebinds a local name."""
+
     name: Ident
     value: Expr
 
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class If(Node):
+    """`if cond { ... } else ...`."""
+
     cond: Expr
     then: Block
     orelse: Block | If | None = None
@@ -421,6 +465,8 @@ class If(Node):
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class For(Node):
+    """`for var in iter { ... }`."""
+
     var: Ident
     iter: Expr
     body: Block
@@ -436,6 +482,9 @@ class MapStmt(Node):
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ExprStmt(Node):
+    """An expression on a line of its own in a shaper or action body, evaluated for what
+    it does (a call)."""
+
     expr: Expr
 
 
@@ -444,6 +493,8 @@ Stmt = Let | Assign | If | For | MapStmt | ExprStmt
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class ActionStep(Node):
+    """`pre { ... }`, `main { ... }` or `post { ... }`: one step of a user action."""
+
     step: str  # pre, main, post
     body: Block
 
@@ -483,6 +534,8 @@ Item = (
 
 @dataclass(frozen=True, slots=True, eq=False, repr=False)
 class Comment(Node):
+    """`// text`: kept on the module for the formatter, which writes it back."""
+
     text: str
 
 

@@ -204,6 +204,9 @@ class ItfId:
 
 @dataclass
 class Interface:
+    """One interface of a node (`cuff.top`): whether it is open, closed or connected,
+    how it is cast on or off, and its size and sides once shape inference knows them."""
+
     id: ItfId
     state: str = "open"  # open | closed | connected
     closing: str | None = None  # for closed interfaces: collapse | zigzag | zigzagreturn
@@ -259,6 +262,8 @@ def stitch_estimate(nodes: dict[str, PrimNode]) -> dict[str, int]:
 
 @dataclass(frozen=True)
 class Connection:
+    """`a -> b`: two interfaces that become one course of fabric."""
+
     a: ItfId
     b: ItfId
     span: Span
@@ -266,6 +271,9 @@ class Connection:
 
 @dataclass(frozen=True)
 class YarnStart:
+    """Where a garment's yarn starts: a `start` statement's interface, or, for a garment
+    without one, inferred: its first interface that is not connected."""
+
     itf: ItfId
     inferred: bool
     span: Span | None
@@ -300,6 +308,9 @@ class Yarn:
 
 @dataclass
 class Skeleton:
+    """The skeleton IR: the design's shape primitives, their interfaces and connections,
+    the yarn starts, and the pattern layers still to apply, all with their values resolved."""
+
     machine: MachineSettings
     params: dict[str, Value]
     nodes: dict[str, PrimNode]

@@ -174,6 +174,9 @@ def pair_cost(
 
 @dataclass
 class Schedule:
+    """The schedule IR (this module's docstring): each slice's layout and offset, from
+    which every cycle entry has its physical needle."""
+
     slices: Slices
     needles: int
     # per slice

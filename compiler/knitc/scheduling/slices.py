@@ -58,6 +58,9 @@ STATE_NAMES = ("expected", "active", "suspended")
 
 @dataclass
 class Slices:
+    """The bed-slice IR (this module's docstring): per-slice arrays, then the flat cycle
+    entries every slice owns a run of."""
+
     # per slice
     node: np.ndarray  # int32: the node every active stitch belongs to
     yarn: np.ndarray  # int16: the yarn knitting the active stitches

@@ -46,6 +46,9 @@ FLAG_NAMES = {
 
 @dataclass
 class Trace:
+    """The traced-yarn IR (this module's docstring): one row per visit, `passes` visits
+    per stitch, and the tracing `method` that made it, which code generation checks."""
+
     stitch: np.ndarray  # int32
     yarn: np.ndarray  # int16
     dir: np.ndarray  # int8
