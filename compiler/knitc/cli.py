@@ -703,8 +703,9 @@ def main(argv: list[str] | None = None) -> int:
     one_shot = argv is None  # the process's own command line (a caller's process is theirs)
     argv = list(sys.argv[1:] if argv is None else argv)
     sub = _subcommand(argv)
-    code = _run(argv, sub, one_shot)
-    if one_shot and (sub is None or argv[sub] != "lsp"):
+    batch = one_shot and (sub is None or argv[sub] != "lsp")  # (a server is long-lived)
+    code = _run(argv, sub, batch)
+    if batch:
         _process.end(code)
     return code
 
@@ -723,12 +724,14 @@ def _subcommand(argv: list[str]) -> int | None:
     )
 
 
-def _run(argv: list[str], sub: int | None, one_shot: bool) -> int:
+def _run(argv: list[str], sub: int | None, batch: bool) -> int:
+    """Run the command; its exit status. `batch`: a one-shot command that is the process's
+    own (`tune_gc`)."""
     try:
         if argv == ["--version"]:  # what argparse would print, without building the parser
             sys.stdout.write(f"knitc {__version__}\n")  # (whose choices need the driver)
             return 0
-        tune_gc(batch=one_shot and (sub is None or argv[sub] != "lsp"))
+        tune_gc(batch=batch)
         if sub is not None:
             rest = argv[:sub] + argv[sub + 1 :]
             if argv[sub] == "lsp":
