@@ -25,8 +25,8 @@ def end(code: int) -> NoReturn:
 
     A normal exit clears every module and frees every object one by one after a last full
     garbage collection: numpy, Lark and knitc's own modules, and a compile's IRs, which
-    all lived to the end anyway. That is about 0.03 s of CPU whatever the design (12 % of
-    `knitc check` on a ten-line design, 10 % of a small garment's compile; issue 16) and
+    all lived to the end anyway. That is about 0.03 s of CPU whatever the design (an eighth of
+    `knitc check` on a ten-line design or of a small garment's compile; issue 16) and
     frees nothing the operating system does not free at once. What an exit must still do
     is done here first: the `atexit` handlers run (logging's shutdown; coverage saving
     what it measured in a child process), and stdout and stderr are flushed, a closed
