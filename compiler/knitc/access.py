@@ -21,7 +21,8 @@ import stat
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
-from dataclasses import dataclass
+
+from knitc.records import record
 
 MAX_IMPORT_BYTES = 8 * 1024 * 1024
 """Largest file an `import` reads: the biggest module knitc ships is a few KB, and the
@@ -40,7 +41,7 @@ class AccessProblem(Exception):
         self.message, self.refused, self.hint = message, refused, hint
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ReadRoots:
     """The folders a compilation may read below, as given (`shown`, for messages that
     must not depend on the machine) and with symlinks resolved (`real`, for the check)."""

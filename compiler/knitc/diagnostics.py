@@ -13,9 +13,10 @@ Wxxx warnings.
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import field
 from enum import Enum
 
+from knitc.records import record
 from knitc.source import SourceFile, Span
 
 
@@ -24,7 +25,7 @@ class Severity(Enum):
     WARNING = "warning"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Note:
     """Extra context: a secondary location ("defined here") or a plain remark."""
 
@@ -32,7 +33,7 @@ class Note:
     span: Span | None = None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Diagnostic:
     severity: Severity
     code: str
@@ -46,7 +47,7 @@ class Diagnostic:
         return self.severity is Severity.ERROR
 
 
-@dataclass
+@record
 class Diagnostics:
     """An ordered collection of diagnostics, plus the sources needed to render them."""
 

@@ -24,13 +24,14 @@ import json
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from knitc.access import ReadRoots, reading_below
 from knitc.codegen import machine as mp
 from knitc.diagnostics import Diagnostics, Note
 from knitc.limits import MAX_STITCHES
+from knitc.records import record
 from knitc.source import SourceFile, Span
 
 if TYPE_CHECKING:
@@ -57,7 +58,7 @@ class InternalError(Exception):
     never in the design (the CLI reports it as an internal error, exit 3)."""
 
 
-@dataclass
+@record
 class Result:
     """Everything one compilation produced so far: the IR of every stage it reached, the
     diagnostics, the time each stage took, and the output of the target stage if one ran."""
@@ -92,7 +93,7 @@ class Result:
         return not self.diagnostics.has_errors
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Stage:
     """One step of the pipeline: `run` computes its IR from the earlier ones in the
     `Result` and stores it (False: it reported errors, stop); `verify` lists the IR's

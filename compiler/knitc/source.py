@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import bisect
 import re
-from dataclasses import dataclass, field
+from dataclasses import field
+
+from knitc.records import record
 
 
-@dataclass(frozen=True, slots=True)
+@record(frozen=True, slots=True)
 class Span:
     """A half-open range of one source file: [start, end) in code points."""
 
@@ -73,7 +75,7 @@ UNKNOWN_SPAN = Span("<unknown>", 1, 1, 1, 1)
 _NEWLINE = re.compile("\n")
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class SourceFile:
     """The text of one input, with a line index for span construction and rendering."""
 

@@ -15,10 +15,10 @@ import sys
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
 
 from knitc.codegen.machine import MachineProgram, pass_index
 from knitc.driver import Result
+from knitc.records import record
 
 PITCH_MM = 25.4 / 15
 """Needle pitch of a 15-gauge bed."""
@@ -32,7 +32,7 @@ REVERSAL_S = 0.3
 """Seconds to stop and reverse the carriage."""
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Workload:
     """What the carriage does for a program: its knitting and transfer passes (the passes
     knitc reports, `machine.pass_index`) and the needles it spans."""

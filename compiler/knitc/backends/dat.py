@@ -21,8 +21,10 @@ DATs "match" when their rows are equal (shared/fixtures/dat/README.md).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
+
+from knitc.records import record
 
 N_OPTIONS = 20
 """Option lines per side: L1..L20 and R1..R20."""
@@ -50,7 +52,7 @@ def option_index(name: str) -> tuple[str, int]:
     return side, k - 1
 
 
-@dataclass
+@record
 class DatPass:
     """One pass row: its direction code, the colour code of every slot it uses (stop marks
     excluded: the container writes them one slot beyond each end), and its option values."""
@@ -73,7 +75,7 @@ class DatPass:
         (self.left if side == "L" else self.right)[k] = value
 
 
-@dataclass
+@record
 class DatImage:
     """A whole DAT: its pass rows, the slot range they span, the position code, and whether
     the carriage ends on the left (the first fixed end course then carries R5 = 2)."""
@@ -97,7 +99,7 @@ class DatImage:
         return len(self.passes) + 19
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Row:
     """One raster row as the conformance tests compare it."""
 

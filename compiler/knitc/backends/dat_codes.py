@@ -65,8 +65,6 @@ none, so that a structural comparison can count the design's stitches in the pro
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from knitc.backends.dat import LEFT, N_OPTIONS, NONE, RIGHT, DatImage
@@ -81,6 +79,7 @@ from knitc.backends.dat_read import (
 )
 from knitc.backends.knitout_read import gc_paused
 from knitc.codegen.machine import Machine, MachineProgram, Needle, Op
+from knitc.records import record
 
 __all__ = ["read_pattern"]
 
@@ -148,7 +147,7 @@ _IGNORED = {"L9", "L12", "R1", "R7", "R9"}
 _READ = {"L2", "L3", "L4", "L5", "L7", "L13", "R3", "R5", "R6", "R10", "R11", "R15"}
 
 
-@dataclass
+@record
 class _Course:
     y: int
     direction: int

@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import field
 from operator import attrgetter
 from typing import cast
 
@@ -71,6 +71,7 @@ from knitc.backends.dat import (
     DatPass,
 )
 from knitc.codegen.machine import Machine, MachineProgram, Needle
+from knitc.records import record
 
 OpRecord = tuple[
     str,
@@ -341,7 +342,7 @@ class _Carrier:
         self.op = op
 
 
-@dataclass
+@record
 class _SplitViaSliders:
     """Splits to sliders waiting for their return transfers: the racking they were made at,
     the sliders holding their loops, and the racking of the returns once one is seen."""

@@ -79,11 +79,11 @@ import gc
 import re
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
 
 from knitc.backends.dat_write import MAX_SPEED_NUMBER, MAX_STITCH_NUMBER, OpRecord
 from knitc.codegen.machine import Machine, MachineProgram, Needle, Op
 from knitc.diagnostics import Diagnostics
+from knitc.records import record
 from knitc.source import SourceFile, Span
 
 MAX_ERRORS = 100
@@ -242,7 +242,7 @@ class _Bad(Exception):
         self.message, self.token, self.code, self.hint = message, token, code, hint
 
 
-@dataclass
+@record
 class _Header:
     machine: str = "SWG091N2"
     gauge: int | float = 15

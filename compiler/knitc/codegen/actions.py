@@ -50,7 +50,7 @@ made by the node's increase instead (the action is ignored there).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 import numpy as np
@@ -72,12 +72,13 @@ from knitc.patterning.actions import (
     std_source,
 )
 from knitc.patterning.query import Coords, coords
+from knitc.records import record
 from knitc.source import UNKNOWN_SPAN, Span
 
 # ---- running (code generation) ----------------------------------------------------------------
 
 
-@dataclass(frozen=True, slots=True)
+@record(frozen=True, slots=True)
 class ActionNeedle:
     """A needle as the action language sees it: a host value with `bed` and `index` that
     moves by whole needles (`needle + 1`). Not the machine's `Needle`, a named tuple: knitc's
@@ -91,14 +92,14 @@ class ActionNeedle:
         return f"{self.bed}{self.index}"
 
 
-@dataclass
+@record
 class UserAction(Action):
     """The steps of a stitch made by an action (not by its instruction)."""
 
     program: Program | None = None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class StitchInfo:
     """The `stitch` record of an action's context: the fields a `filter` reads."""
 
@@ -111,7 +112,7 @@ class StitchInfo:
     node: int
 
 
-@dataclass
+@record
 class _State:
     """Per code generation: where each stitch sits in its course, and its query fields."""
 

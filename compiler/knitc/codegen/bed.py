@@ -11,9 +11,10 @@ from __future__ import annotations
 
 from collections import defaultdict
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import field
 
 from knitc.codegen.machine import MachineProgram, Needle, Op
+from knitc.records import record
 from knitc.shaping.stitch_graph import StitchGraph
 from knitc.source import Span
 
@@ -49,7 +50,7 @@ class Unsupported(Exception):
         self.hint = hint
 
 
-@dataclass
+@record
 class Bed:
     g: StitchGraph
     prog: MachineProgram

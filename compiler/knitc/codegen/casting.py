@@ -66,14 +66,14 @@ yarn end
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 
 from knitc.codegen.bed import Bed, Pos, Unsupported, needle
 from knitc.codegen.transfers import move
+from knitc.records import record
 from knitc.source import Span
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class StitchNumbers:
     """`x-stitch-number` of each kind of pass (abstract indices into the machine's stitch
     table, so loops are looser the higher the number).
@@ -106,7 +106,7 @@ TAIL_KNITS = 5
 """Knits of the yarn tail on the last loop of a bind-off (knitsketching's yarn end pass)."""
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Entry:
     """A needle of a course in yarn order: where, the carriage direction, the stitch."""
 
@@ -115,7 +115,7 @@ class Entry:
     stitch: int = -1
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Step:
     """One cast-on op: `kind` is 'tuck' or 'knit'."""
 
@@ -125,7 +125,7 @@ class Step:
     stitch: int = -1
 
 
-@dataclass
+@record
 class Ctx:
     """What every emitter needs: the bed, the working carrier, the stitch numbers, and the
     span that ops belonging to no stitch (catching tucks, pick-up tucks) are reported at."""

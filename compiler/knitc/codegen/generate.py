@@ -33,7 +33,7 @@ from __future__ import annotations
 from bisect import bisect_right
 from collections import Counter
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import field
 from functools import partial
 
 import numpy as np
@@ -56,6 +56,7 @@ from knitc.diagnostics import Diagnostics
 from knitc.frontend import skeleton as sk
 from knitc.patterning import actions as pattern_actions
 from knitc.patterning.instructions import CROSSES, MOVES, cables, neighbour, origin_site, right_left
+from knitc.records import record
 from knitc.scheduling import schedule as sc
 from knitc.scheduling import trace as tr
 from knitc.shaping.stitch_graph import COURSE_KINDS, INSTRUCTIONS, StitchGraph, two_bed
@@ -72,7 +73,7 @@ CARRIED = list(MOVES) + list(CROSSES)
 # ---- options ----------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class CodegenOptions:
     """The fabrication choices code generation follows, resolved from the skeleton.
 
@@ -154,7 +155,7 @@ def action_table(skel: sk.Skeleton) -> Sequence:
 # ---- state ------------------------------------------------------------------------------------
 
 
-@dataclass
+@record
 class _Gen:
     g: StitchGraph
     sched: sc.Schedule

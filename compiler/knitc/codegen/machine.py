@@ -34,9 +34,10 @@ import math
 from collections import Counter
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any, NamedTuple, cast
 
+from knitc.records import record
 from knitc.source import Span
 
 # ---- needles ----------------------------------------------------------------------------------
@@ -124,7 +125,7 @@ def aligned(a: NeedleLike, b: NeedleLike, racking: float) -> bool:
 # ---- the machine profile ----------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Machine:
     """The target machine: the values written into the Knitout header and checked against."""
 
@@ -335,7 +336,7 @@ def as_carriers(cs: CarriersLike) -> tuple[int, ...]:
 _UNSET: Any = object()
 
 
-@dataclass
+@record
 class MachineProgram:
     """A machine profile and its operations, in execution order; also the builder.
 

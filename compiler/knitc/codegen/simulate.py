@@ -59,7 +59,6 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from dataclasses import dataclass
 from typing import Any
 
 from knitc.codegen.machine import (
@@ -71,6 +70,7 @@ from knitc.codegen.machine import (
     racking_for,
 )
 from knitc.diagnostics import Diagnostics, Note
+from knitc.records import record
 from knitc.source import Span
 
 CODES: dict[str, str] = {
@@ -99,7 +99,7 @@ CODES: dict[str, str] = {
 ERROR, WARNING = "error", "warning"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Finding:
     """One problem found by the simulator, located at an op (and so at a stitch and span)."""
 

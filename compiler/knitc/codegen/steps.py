@@ -7,12 +7,14 @@ of pattern instructions build the same kind of object without importing each oth
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import field
+
+from knitc.records import record
 
 ActionStep = Callable[[], None]
 
 
-@dataclass
+@record
 class Action:
     """One stitch's steps (thesis "Action Pass", after the pre-main-post stitch actions of
     Narayanan et al.): `pre` steps bring loops where the main step needs them, `main` steps

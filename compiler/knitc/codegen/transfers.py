@@ -61,11 +61,12 @@ from __future__ import annotations
 
 import weakref
 from collections import defaultdict
-from dataclasses import dataclass, field
+from dataclasses import field
 from operator import itemgetter
 from typing import Any, cast
 
 from knitc.codegen.bed import BEDS, SLIDERS, Bed, Pos, Unsupported
+from knitc.records import record
 
 Move = tuple[int, Pos, Pos]
 
@@ -74,7 +75,7 @@ _PARK = {"f": ("b", "bs"), "b": ("f", "fs")}
 """Where a loop of a bed waits during a shift: the other bed's hook, else its slider."""
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Xfer:
     src: Pos
     dst: Pos
@@ -82,7 +83,7 @@ class Xfer:
     rack: int
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Park:
     """Move `carrier` with a miss so it rests at `to` (a half-integer needle position)."""
 
@@ -186,7 +187,7 @@ def _along_bed(bed: Bed, s: int, src: Pos, dst: Pos) -> list[Step] | None:
 # ---- carriers -----------------------------------------------------------------------------
 
 
-@dataclass
+@record
 class _CarrierTrack:
     seen: int = 0
     active: set[int] = field(default_factory=set)
@@ -240,7 +241,7 @@ def _carriers(bed: Bed) -> dict[int, tuple[float, Pos | None]]:
 # ---- the planner --------------------------------------------------------------------------
 
 
-@dataclass
+@record
 class _Unit:
     """The loops of one needle that travel together (stacked loops cannot be split)."""
 

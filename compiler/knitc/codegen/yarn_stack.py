@@ -37,12 +37,12 @@ visits its stitches in.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from knitc.codegen.backing import back_knits
+from knitc.records import record
 from knitc.scheduling import schedule as sc
 from knitc.scheduling.trace import Trace
 from knitc.shaping.stitch_graph import StitchGraph, two_bed
@@ -52,7 +52,7 @@ MODE_NAMES = {MISS: "miss", TUCK: "tuck", KNIT: "knit"}
 """Table 6.1's back modes (*none* is the absence of an entry)."""
 
 
-@dataclass
+@record
 class YarnStacks:
     """Per stitch its front yarn; per back entry its stitch, yarn, mode and whether the
     yarn is laid in (an inlay yarn, `yarn { inlay: N }`) rather than knitted."""

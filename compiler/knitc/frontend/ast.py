@@ -1,6 +1,6 @@
 """The knitc abstract syntax tree.
 
-Frozen dataclasses, one per construct of `grammars/knit.lark`. Every node carries the span
+Frozen records (`knitc.records`), one per construct of `grammars/knit.lark`. Every node carries the span
 of the text it came from; spans are excluded from equality so that `parse(fmt(x)) == x`
 states exactly "the formatter changes layout, never meaning". The tree is deliberately
 close to the source: names are not resolved here (that is `frontend.resolve`), so the
@@ -9,33 +9,20 @@ formatter and the language server can work on programs that do not resolve.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import field, fields
 from typing import Any
 
+from knitc.records import record
 from knitc.source import UNKNOWN_SPAN, Span
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Node:
-    """Every node is a frozen dataclass compared, hashed and shown by its fields (its span
-    and other `compare=False` fields left out of equality, `repr=False` ones out of its
-    repr) through the three methods here: generated per class, as a dataclass does with
-    eq and repr, they were a third of knitc's start-up (each class compiles its own)."""
+    """Every node is a frozen record (`knitc.records`): compared, hashed and shown by its
+    fields, its span and other `compare=False` fields left out of equality, `repr=False`
+    ones out of its repr."""
 
     span: Span = field(default=UNKNOWN_SPAN, compare=False, repr=False, kw_only=True)
-
-    def __eq__(self, other: object) -> bool:
-        if other.__class__ is not self.__class__:
-            return NotImplemented
-        return _key(self) == _key(other)
-
-    def __hash__(self) -> int:
-        return hash(_key(self))
-
-    def __repr__(self) -> str:
-        shown = _names(type(self), "repr")
-        args = ", ".join(f"{name}={getattr(self, name)!r}" for name in shown)
-        return f"{type(self).__qualname__}({args})"
 
     def children(self) -> list[Node]:
         out: list[Node] = []
@@ -54,22 +41,6 @@ class Node:
             stack.extend(reversed(n.children()))
 
 
-_NAMES: dict[tuple[type, str], tuple[str, ...]] = {}
-
-
-def _names(cls: type, flag: str) -> tuple[str, ...]:
-    """The fields of a node class whose `flag` ("compare" or "repr") is set, looked up once."""
-    names = _NAMES.get((cls, flag))
-    if names is None:
-        names = _NAMES[cls, flag] = tuple(f.name for f in fields(cls) if getattr(f, flag))
-    return names
-
-
-def _key(node: Node) -> tuple[Any, ...]:
-    """The values that make a node's identity, as a dataclass's eq compares them."""
-    return tuple([getattr(node, name) for name in _names(type(node), "compare")])
-
-
 def _collect(value: Any, out: list[Node]) -> None:
     if isinstance(value, Node):
         out.append(value)
@@ -78,7 +49,7 @@ def _collect(value: Any, out: list[Node]) -> None:
             _collect(v, out)
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Ident(Node):
     """A name written by the user, kept with its own span for precise diagnostics."""
 
@@ -88,49 +59,49 @@ class Ident(Node):
 # ---- expressions ---------------------------------------------------------------------------
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Number(Node):
     """`12`, `0.5`, `1e3`: a number literal (an int when written as digits only)."""
 
     value: int | float
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class String(Node):
     """`"red"`: a string literal, its escapes resolved."""
 
     value: str
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Bool(Node):
     """`true`, `false`."""
 
     value: bool
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class GridCell(Node):
     """One cell of a drawn grid: an instruction mnemonic as written."""
 
     text: str
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Grid(Node):
     """A drawn grid: rows of instruction mnemonics, as written (top row first)."""
 
     rows: tuple[tuple[GridCell, ...], ...]
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class ParamRef(Node):
     """`#name`: a design parameter."""
 
     name: str
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class PropRef(Node):
     """`@prop` (the enclosing node's property) or `@node.prop`."""
 
@@ -138,21 +109,21 @@ class PropRef(Node):
     prop: str
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Name(Node):
     """A bare name: an enum word (`half`), a local, a builtin or a definition."""
 
     id: str
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class ListExpr(Node):
     """`[a, b, ...]`: a list value."""
 
     items: tuple[Expr, ...]
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class ProfilePoint(Node):
     """`t: value`, one point of a profile."""
 
@@ -160,21 +131,21 @@ class ProfilePoint(Node):
     value: Expr
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Profile(Node):
     """`[t0: v0, t1: v1, ...]`: a piecewise-linear function over t in [0, 1]."""
 
     points: tuple[ProfilePoint, ...]
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class TupleExpr(Node):
     """`(a, b, ...)`: a tuple value (the sides of a map statement)."""
 
     items: tuple[Expr, ...]
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Unary(Node):
     """`-x`, `not x`."""
 
@@ -182,7 +153,7 @@ class Unary(Node):
     operand: Expr
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Binary(Node):
     """`a op b` for the arithmetic, comparison and boolean operators."""
 
@@ -191,7 +162,7 @@ class Binary(Node):
     right: Expr
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Range(Node):
     """`start:stop` or `start:step:stop` (inclusive, as in thesis Table 5.1)."""
 
@@ -200,7 +171,7 @@ class Range(Node):
     step: Expr | None = None
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class KwArg(Node):
     """`name: value` in a call's arguments."""
 
@@ -208,7 +179,7 @@ class KwArg(Node):
     value: Expr
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Call(Node):
     """`f(args)`: a call of a stdlib function, a query or a user pattern or shaper."""
 
@@ -216,7 +187,7 @@ class Call(Node):
     args: tuple[Arg, ...]
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Attr(Node):
     """`obj.name`: a field of a value (`cuff.top`, `s.course`)."""
 
@@ -224,7 +195,7 @@ class Attr(Node):
     name: Ident
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Index(Node):
     """`obj[index]`."""
 
@@ -255,7 +226,7 @@ Arg = Expr | Range | KwArg
 # ---- declarations ----------------------------------------------------------------------------
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Prop(Node):
     """`name: value` inside a node, machine, interface or action block."""
 
@@ -263,7 +234,7 @@ class Prop(Node):
     value: Expr
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Import(Node):
     """`import std.stitches (rib)` (module) or `import "lace.knit"` (file)."""
 
@@ -272,7 +243,7 @@ class Import(Node):
     names: tuple[Ident, ...] | None = None
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class ParamDecl(Node):
     """`param name = value`: a design parameter, which `-D name=value` overrides."""
 
@@ -280,14 +251,14 @@ class ParamDecl(Node):
     value: Expr
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class MachineDecl(Node):
     """`machine { ... }`: the machine the design is knitted on."""
 
     props: tuple[Prop, ...]
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class YarnDecl(Node):
     """`yarn red { carrier: 5 }`: a yarn the pattern layers can knit with (`knit red`)."""
 
@@ -295,7 +266,7 @@ class YarnDecl(Node):
     props: tuple[Prop, ...]
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class NodeDecl(Node):
     """A shape primitive: `sheet`, `tube`, `joint` or `split`."""
 
@@ -304,7 +275,7 @@ class NodeDecl(Node):
     props: tuple[Prop, ...]
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class ItfRef(Node):
     """`node.bottom`, `node.top`, `node.base`, `node.branches[i]`."""
 
@@ -313,7 +284,7 @@ class ItfRef(Node):
     index: Expr | None = None
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class ItfStmt(Node):
     """Interface state and casting: `a.bottom closed(zigzag) { cast_on: tuck }`."""
 
@@ -323,7 +294,7 @@ class ItfStmt(Node):
     props: tuple[Prop, ...] | None
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Connect(Node):
     """`a.top -> b.bottom`: two interfaces joined into one course of fabric."""
 
@@ -331,14 +302,14 @@ class Connect(Node):
     b: ItfRef
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Start(Node):
     """`start node.itf`: where the yarn starts (the cast-on interface)."""
 
     itf: ItfRef
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class ParamDef(Node):
     """A formal parameter of a pattern or shaper definition, with optional default."""
 
@@ -349,7 +320,7 @@ class ParamDef(Node):
 # ---- pattern layers ------------------------------------------------------------------------
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class SetStmt(Node):
     """`set P where q`: write a pattern instruction on the selected stitches."""
 
@@ -357,7 +328,7 @@ class SetStmt(Node):
     where: Expr | None = None
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class UseStmt(Node):
     """`use purl_flat where q`: attach a stitch action to the selected stitches."""
 
@@ -365,7 +336,7 @@ class UseStmt(Node):
     where: Expr | None = None
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class ApplyStmt(Node):
     """`apply rib(2, 2) where q`: run a pattern definition on the selected stitches."""
 
@@ -374,7 +345,7 @@ class ApplyStmt(Node):
     where: Expr | None = None
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class GridStmt(Node):
     """`draw` (singular, centred), `stretch` (scalable) or `tile` (tileable) a grid."""
 
@@ -383,7 +354,7 @@ class GridStmt(Node):
     where: Expr | None = None
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class KnitStmt(Node):
     """`knit red where q`: the selected stitches are knitted with the yarn `red`."""
 
@@ -391,7 +362,7 @@ class KnitStmt(Node):
     where: Expr | None = None
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class BackingStmt(Node):
     """`backing birdseye where q`: the selected stitches' courses of several yarns are
     jacquard, their yarns knitting a backing on the other bed (`stitch_graph.BACKINGS`)."""
@@ -400,7 +371,7 @@ class BackingStmt(Node):
     where: Expr | None = None
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class IntarsiaStmt(Node):
     """`intarsia where q`: the selected stitches' courses are intarsia: each region of one
     yarn is knitted by a carrier of its own, joined to its neighbours by tucks."""
@@ -408,7 +379,7 @@ class IntarsiaStmt(Node):
     where: Expr | None = None
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Let(Node):
     """`let name = value`: a local name."""
 
@@ -419,7 +390,7 @@ class Let(Node):
 LayerStmt = SetStmt | UseStmt | ApplyStmt | GridStmt | KnitStmt | BackingStmt | IntarsiaStmt | Let
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class PatternLayer(Node):
     """`pattern cuff { ... }`; the target `before`/`after` means the global layers."""
 
@@ -427,7 +398,7 @@ class PatternLayer(Node):
     body: tuple[LayerStmt, ...]
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class PatternDef(Node):
     """`pattern name(params) { ... }`: a reusable pattern, applied with `apply`."""
 
@@ -439,14 +410,14 @@ class PatternDef(Node):
 # ---- statements (shaper programs and action steps) ------------------------------------------
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Block(Node):
     """`{ stmts }`: the body of a shaper, an action step or a branch."""
 
     stmts: tuple[Stmt, ...]
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Assign(Node):
     """`name = value`: rebinds a local name."""
 
@@ -454,7 +425,7 @@ class Assign(Node):
     value: Expr
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class If(Node):
     """`if cond { ... } else ...`."""
 
@@ -463,7 +434,7 @@ class If(Node):
     orelse: Block | If | None = None
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class For(Node):
     """`for var in iter { ... }`."""
 
@@ -472,7 +443,7 @@ class For(Node):
     body: Block
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class MapStmt(Node):
     """`i -> j` (map), `i -> (j1, j2)` (increase), `(i1, i2) -> j` (decrease)."""
 
@@ -480,7 +451,7 @@ class MapStmt(Node):
     dst: Expr
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class ExprStmt(Node):
     """An expression on a line of its own in a shaper or action body, evaluated for what
     it does (a call)."""
@@ -491,7 +462,7 @@ class ExprStmt(Node):
 Stmt = Let | Assign | If | For | MapStmt | ExprStmt
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class ActionStep(Node):
     """`pre { ... }`, `main { ... }` or `post { ... }`: one step of a user action."""
 
@@ -499,7 +470,7 @@ class ActionStep(Node):
     body: Block
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class ActionDef(Node):
     """A user stitch action (thesis ch. 6.9.1): properties and pre/main/post steps."""
 
@@ -507,7 +478,7 @@ class ActionDef(Node):
     items: tuple[Prop | ActionStep, ...]
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class ShaperDef(Node):
     """A user shaper program mapping a course of M stitches onto one of N (ch. 5.4.1)."""
 
@@ -532,14 +503,14 @@ Item = (
 )
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Comment(Node):
     """`// text`: kept on the module for the formatter, which writes it back."""
 
     text: str
 
 
-@dataclass(frozen=True, slots=True, eq=False, repr=False)
+@record(frozen=True, slots=True)
 class Module(Node):
     """One source file: its items in order, and its comments (kept for the formatter)."""
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import difflib
 import os
-from dataclasses import dataclass, field
+from dataclasses import field
 from functools import lru_cache
 from pathlib import Path
 from typing import Any, cast
@@ -25,6 +25,7 @@ from knitc.frontend.parser import parse_source
 from knitc.lang.evaluate import (
     EvalError,
 )
+from knitc.records import record
 from knitc.resources import stdlib_module
 from knitc.source import SourceFile, Span
 
@@ -34,7 +35,7 @@ def _suggest(name: str, options) -> str | None:
     return f"did you mean `{close[0]}`?" if close else None
 
 
-@dataclass
+@record
 class _Defs:
     patterns: dict[str, ast.PatternDef] = field(default_factory=dict)
     actions: dict[str, ast.ActionDef] = field(default_factory=dict)

@@ -18,7 +18,6 @@ Two details make it pleasant to write in:
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
 from functools import lru_cache
 
 from lark import Lark, Token, Transformer, Tree, v_args
@@ -30,6 +29,7 @@ from knitc.diagnostics import Diagnostics
 from knitc.frontend import ast, tables
 from knitc.frontend.scanners import share_root_scanner
 from knitc.lang import arith
+from knitc.records import record
 from knitc.resources import grammar_text
 from knitc.source import SourceFile, Span
 
@@ -646,7 +646,7 @@ def _hint(tok: Token, expected: set[str]) -> str | None:
     return None
 
 
-@dataclass
+@record
 class _Chunk:
     start: int
     end: int

@@ -13,13 +13,14 @@ stable dump behind `knitc --emit skeleton`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import TYPE_CHECKING, Any, cast
 
 from knitc.diagnostics import Diagnostics, Note
 from knitc.frontend import ast
 from knitc.lang.evaluate import Profile, Value, round_half_up
 from knitc.limits import MAX_STITCHES  # noqa: F401  (where the resolver and tools look)
+from knitc.records import record
 from knitc.source import Span
 
 if TYPE_CHECKING:
@@ -28,7 +29,7 @@ if TYPE_CHECKING:
 # ---- property schemas -------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class PropSpec:
     """What a property accepts. `kind` is one of: int, number, bool, string, choice, width,
     joint_layout, split_layout, carriers, shaper."""
@@ -170,7 +171,7 @@ ACTION_PROPS: dict[str, PropSpec] = {
 # ---- IR records ---------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class MachineSettings:
     """The design's `machine { ... }` block, defaults filled in: what the pipeline is
     compiled for (not the machine model code generation emits for, `codegen.machine.Machine`,
@@ -189,7 +190,7 @@ class MachineSettings:
     span: Span | None = None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ItfId:
     """An interface: a node name and a path (`bottom`, `top`, `base`, `branches/2`)."""
 
@@ -202,7 +203,7 @@ class ItfId:
         return f"{self.node}.{self.path}"
 
 
-@dataclass
+@record
 class Interface:
     """One interface of a node (`cuff.top`): whether it is open, closed or connected,
     how it is cast on or off, and its size and sides once shape inference knows them."""
@@ -220,7 +221,7 @@ class Interface:
     """The statement that set its state, or the node that owns it."""
 
 
-@dataclass
+@record
 class PrimNode:
     """A shape primitive with concrete parameters (thesis ch. 5.2, Table 5.1's primitives)."""
 
@@ -260,7 +261,7 @@ def stitch_estimate(nodes: dict[str, PrimNode]) -> dict[str, int]:
     return sizes
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Connection:
     """`a -> b`: two interfaces that become one course of fabric."""
 
@@ -269,7 +270,7 @@ class Connection:
     span: Span
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class YarnStart:
     """Where a garment's yarn starts: a `start` statement's interface, or, for a garment
     without one, inferred: its first interface that is not connected."""
@@ -279,7 +280,7 @@ class YarnStart:
     span: Span | None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Layer:
     """One pattern-layer statement, resolved but not yet applied (that is the pattern pass)."""
 
@@ -288,7 +289,7 @@ class Layer:
     origin: Span
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Yarn:
     """A yarn of the design (`yarn red { ... }`); `main` always exists."""
 
@@ -306,7 +307,7 @@ class Yarn:
     """An inlay yarn's catching distance in needles (`inlay`); 0: a knitting yarn."""
 
 
-@dataclass
+@record
 class Skeleton:
     """The skeleton IR: the design's shape primitives, their interfaces and connections,
     the yarn starts, and the pattern layers still to apply, all with their values resolved."""

@@ -13,14 +13,15 @@ import bisect
 import difflib
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import field
 
 from knitc.frontend import ast
 from knitc.lang import arith as _arith
+from knitc.records import record
 from knitc.source import Span
 
 
-@dataclass(frozen=True, slots=True)
+@record(frozen=True, slots=True)
 class Word:
     """A bare name used as a value: an enum choice (`half`) or a definition name."""
 
@@ -30,7 +31,7 @@ class Word:
         return self.name
 
 
-@dataclass(frozen=True, slots=True)
+@record(frozen=True, slots=True)
 class Profile:
     """A piecewise-linear function of t in [0, 1], clamped to its end values outside.
 

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Callable, Collection, Mapping
-from dataclasses import dataclass
 
 from knitc.frontend import ast
 from knitc.lang import arith
@@ -43,6 +42,7 @@ from knitc.lang.evaluate import (
     show,
     type_name,
 )
+from knitc.records import record
 from knitc.source import UNKNOWN_SPAN, Span
 
 DEFAULT_BUDGET = 10_000_000
@@ -66,7 +66,7 @@ LOCAL_BUILTINS = {"range": (1, 3), "len": (1, 1)}
 """Functions of statement blocks on top of `evaluate.BUILTINS`, with their arity."""
 
 
-@dataclass(frozen=True, slots=True)
+@record(frozen=True, slots=True)
 class Host:
     """A host function with its arity; `span=True` passes the call's span as `span=`.
 

@@ -14,7 +14,7 @@ on the rest of the file while one statement is half written.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from functools import cached_property
 
 from knitc import driver
@@ -24,6 +24,7 @@ from knitc.frontend import skeleton as sk
 from knitc.lsp import index as ix
 from knitc.lsp.positions import UTF16, Locator
 from knitc.lsp.settings import Settings
+from knitc.records import record
 from knitc.shaping import stitch_graph as sg
 from knitc.source import SourceFile
 
@@ -42,7 +43,7 @@ that the first edit the designer makes is as quick as the next (the server and t
 back end's worker compile it when they start)."""
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Analysis:
     uri: str
     version: int | None

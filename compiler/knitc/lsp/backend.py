@@ -21,18 +21,19 @@ import threading
 import time
 import traceback
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import field
 from multiprocessing.connection import Connection
 from typing import Any
 
 from knitc.diagnostics import Diagnostics
 from knitc.lsp.settings import Settings
+from knitc.records import record
 
 KILL_AFTER = 2.0
 """Seconds a stopped job may take to reach a stage boundary before its worker is killed."""
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Job:
     key: tuple[str, str]
     """(document URI, "check" | "preview"): a newer job with the same key replaces it."""
@@ -45,7 +46,7 @@ class Job:
     id: int = 0
 
 
-@dataclass
+@record
 class Outcome:
     job: Job
     status: str
@@ -144,13 +145,13 @@ def _preview(job: Job, result: Any) -> str:
 # ---- the server's side ----------------------------------------------------------------------
 
 
-@dataclass
+@record
 class _Worker:
     process: Any
     conn: Connection
 
 
-@dataclass
+@record
 class Backend:
     """Runs jobs in the worker and tells `done` (from its own thread) how each ended."""
 

@@ -23,7 +23,7 @@ import logging
 import os
 import re
 from collections.abc import Iterable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import TYPE_CHECKING, Any
 
 from lark import Token
@@ -37,6 +37,7 @@ from knitc.frontend.names import QUERY_FUNCTIONS, QUERY_WORDS
 from knitc.lsp.analysis import Analysis
 from knitc.lsp.definitions import signature, stdlib_exports, stdlib_modules
 from knitc.lsp.positions import UTF16
+from knitc.records import record
 from knitc.shaping.stitch_graph import INSTRUCTIONS
 from knitc.view.figure import INSTR_NAMES
 
@@ -55,7 +56,7 @@ Kind = types.CompletionItemKind
 # ---- items ------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Item:
     """One suggestion, in code-point offsets (converted to the client's units at the end)."""
 
@@ -72,7 +73,7 @@ class Item:
     """Further edits (start, end, new text) made when the item is accepted."""
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Answer:
     """The items for one position and the part of the text they replace."""
 
@@ -86,7 +87,7 @@ class Answer:
 _IDENT = re.compile(r"[A-Za-z_]\w*")
 
 
-@dataclass
+@record
 class Context:
     """What surrounds the cursor: the word being typed and the statement it is in."""
 
@@ -207,7 +208,7 @@ _HEADERS: tuple[tuple[str, re.Pattern[str]], ...] = (
 )
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Block:
     """The innermost `{ … }` the cursor is in: its kind (node, machine, yarn, action, layer,
     itf, code or top), the node kind for a node block, where it opens, and whether the
@@ -279,7 +280,7 @@ def _glued(text: str, i: int) -> bool:
 # ---- the design's names ------------------------------------------------------------------------
 
 
-@dataclass
+@record
 class Names:
     """The definitions and declarations completion can offer, from the analysis."""
 

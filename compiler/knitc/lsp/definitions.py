@@ -5,12 +5,12 @@ read the same everywhere."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import lru_cache
 
 from knitc.diagnostics import Diagnostics
 from knitc.frontend import ast
 from knitc.frontend.fmt import format_expr
+from knitc.records import record
 from knitc.source import SourceFile
 
 KINDS: dict[type, str] = {
@@ -56,7 +56,7 @@ def doc_comment(source: SourceFile, line: int) -> str:
     return "\n".join(reversed(lines)).strip()
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Export:
     """A pattern, action or shaper of a standard-library module."""
 

@@ -21,7 +21,6 @@ from __future__ import annotations
 import bisect
 import re
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass
 from functools import lru_cache
 
 from lark.exceptions import UnexpectedCharacters
@@ -43,6 +42,7 @@ from knitc.lsp.analysis import Analysis
 from knitc.lsp.index import Index
 from knitc.lsp.positions import UTF16, column_to_units, units
 from knitc.lsp.server import KnitServer
+from knitc.records import record
 from knitc.shaping.stitch_graph import INSTRUCTIONS
 from knitc.source import SourceFile
 
@@ -70,7 +70,7 @@ def formatted(text: str, path: str = "<input>") -> str | None:
     return None if module is None else format_module(module)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Replacement:
     """Code-point offsets `start`..`end` of the old text become `text`."""
 
@@ -182,7 +182,7 @@ def to_text_edits(a: Analysis, edits: Iterable[Replacement], encoding: str) -> l
 # ---- lexing ---------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Tok:
     type: str
     start: int
@@ -265,7 +265,7 @@ def _choice_words() -> frozenset[str]:
     return frozenset(words)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Semantic:
     """One classified token: offsets in the text, an index into TOKEN_TYPES, a bit set
     of TOKEN_MODIFIERS."""

@@ -23,7 +23,6 @@ from __future__ import annotations
 import os
 import re
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -38,6 +37,7 @@ from knitc.lsp.analysis import Analysis
 from knitc.lsp.definitions import doc_comment, signature
 from knitc.lsp.index import Ref, Symbol
 from knitc.lsp.locations import STDLIB, source_of
+from knitc.records import record
 from knitc.shaping.stitch_graph import INSTRUCTIONS, StitchGraph
 from knitc.source import SourceFile, Span
 from knitc.view.figure import INSTR_NAMES
@@ -196,7 +196,7 @@ are read from the node itself)."""
 _WORD = re.compile(r"X[RL][+-]|[A-Za-z_][A-Za-z0-9_]*|[0-9][0-9.]*")
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Info:
     """A hover's Markdown and the code-point offsets of the word it is about."""
 
@@ -205,7 +205,7 @@ class Info:
     end: int
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class _Word:
     text: str
     start: int
@@ -863,7 +863,7 @@ def _where(a: Analysis, span: Span) -> str:
 # ---- inlay hints ---------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Hint:
     """An inlay hint at a code-point offset."""
 

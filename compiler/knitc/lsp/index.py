@@ -17,10 +17,11 @@ are not indexed.
 from __future__ import annotations
 
 import bisect
-from dataclasses import dataclass, field
+from dataclasses import field
 
 from knitc.frontend import ast
 from knitc.frontend.skeleton import SHAPERS
+from knitc.records import record
 from knitc.source import Span
 
 KINDS = ("param", "node", "yarn", "pattern", "action", "shaper")
@@ -29,7 +30,7 @@ NODE_QUERIES = ("shape", "itf")
 """Pattern queries whose string argument starts with a node's name."""
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Symbol:
     """A declaration in this module."""
 
@@ -41,7 +42,7 @@ class Symbol:
     """The whole declaration (its span is the symbol's extent)."""
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Ref:
     """A use of a name (which may be declared here, imported, or nowhere)."""
 
@@ -51,7 +52,7 @@ class Ref:
     """The name itself: without the `#` of a parameter or the `@` of a property reference."""
 
 
-@dataclass
+@record
 class Index:
     symbols: list[Symbol] = field(default_factory=list)
     refs: list[Ref] = field(default_factory=list)

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import difflib
 import re
-from dataclasses import dataclass
 from typing import Any
 
 from lsprotocol import types
@@ -32,6 +31,7 @@ from knitc.lsp.analysis import Analysis
 from knitc.lsp.convert import SOURCE
 from knitc.lsp.definitions import stdlib_providers
 from knitc.lsp.server import KnitServer
+from knitc.records import record
 
 _DID_YOU_MEAN = re.compile(r"did you mean `([^`]+)`\?")
 _UNKNOWN = {"E217": "action", "E218": "pattern"}
@@ -42,7 +42,7 @@ _GAUGE_HINT = "`gauge: half`"
 _UNKNOWN_YARN = "E228"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Fix:
     """A quick fix in code-point offsets of the document's text."""
 

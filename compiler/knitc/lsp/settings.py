@@ -16,13 +16,14 @@ editor's settings file is input like any other.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 from knitc.frontend.skeleton import MAX_STITCHES
+from knitc.records import record
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Settings:
     defines: tuple[str, ...] = ()
     """`NAME=VALUE` texts, as the CLI's `-D`."""

@@ -20,7 +20,6 @@ import logging
 import os
 import re
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -38,6 +37,7 @@ from knitc.lsp.analysis import Analysis
 from knitc.lsp.definitions import params_text
 from knitc.lsp.locations import STDLIB, location, path_to_uri, source_of
 from knitc.lsp.positions import UTF16, Locator
+from knitc.records import record
 from knitc.source import SourceFile, Span
 
 if TYPE_CHECKING:
@@ -76,7 +76,7 @@ SKIP_DIRS = frozenset({".venv", "venv", "node_modules", "__pycache__"})
 # ---- what is at the cursor ---------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Target:
     """A name under the cursor: its namespace (`param`, `node`, `yarn`, `def`), name and
     span."""
@@ -305,7 +305,7 @@ def _describe(target: Target) -> str:
     return f"`#{target.name}`" if target.space == "param" else f"`{target.name}`"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class FileEdit:
     """The renamed names of one file: its text (as edited) and the spans to replace."""
 
@@ -632,7 +632,7 @@ def document_symbols(a: Analysis, encoding: str = UTF16) -> list[types.DocumentS
 # ---- workspace symbols ------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Indexed:
     """A file's text and index, for workspace symbols."""
 

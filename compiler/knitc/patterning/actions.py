@@ -25,7 +25,7 @@ Ids and built-ins
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import field
 from functools import lru_cache
 from typing import overload
 
@@ -34,6 +34,7 @@ from knitc.frontend import ast
 from knitc.frontend.names import BUILTIN_ACTIONS
 from knitc.frontend.parser import parse_source
 from knitc.lang.evaluate import EvalError, Evaluator, Value
+from knitc.records import record
 from knitc.resources import stdlib_module
 from knitc.shaping.stitch_graph import INSTRUCTIONS
 from knitc.source import SourceFile, Span
@@ -57,7 +58,7 @@ KNIT = INSTRUCTIONS.index("K")
 # ---- the table of actions ---------------------------------------------------------------------
 
 
-@dataclass(frozen=True, eq=False)
+@record(frozen=True, eq=False)
 class Program:
     """An action as code generation runs it: its steps and evaluated properties."""
 

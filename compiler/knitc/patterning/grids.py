@@ -20,16 +20,15 @@ once per stitch.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from knitc.records import record
 from knitc.shaping.stitch_graph import StitchGraph
 
 UNSET = np.iinfo(np.int64).min
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class GridCoords:
     on: np.ndarray  # bool: stitches on the grid
     row: np.ndarray  # int64 (UNSET off the grid)

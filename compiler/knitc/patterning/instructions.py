@@ -38,6 +38,7 @@ from collections import Counter
 import numpy as np
 
 from knitc.diagnostics import Diagnostics, Note, at_designer
+from knitc.records import record
 from knitc.shaping.stitch_graph import INSTRUCTIONS, StitchGraph
 from knitc.source import Span
 
@@ -59,7 +60,7 @@ MAX_RELIEF = 4
 """Plain stitches allowed between the two runs of a cable."""
 
 
-@dataclasses.dataclass(frozen=True)
+@record(frozen=True)
 class Cable:
     """One cable of a course: its stitches left to right, the widths of its runs."""
 
@@ -164,7 +165,7 @@ def _scan(instr: np.ndarray, right: np.ndarray, s0: int) -> Cable | None:
     return Cable(tuple(group), f, r, s, code == UPPER)
 
 
-@dataclasses.dataclass
+@record
 class _Check:
     g: StitchGraph
     diags: Diagnostics

@@ -41,6 +41,7 @@ from knitc.patterning.query import (
     evaluate_query,
     relative,
 )
+from knitc.records import record
 from knitc.shaping.stitch_graph import (
     BACKINGS,
     COURSE_KINDS,
@@ -295,7 +296,7 @@ def _node_first_course(g: StitchGraph, c: int) -> int:
     return int(np.argmax(g.course_node == node))
 
 
-@dataclasses.dataclass
+@record
 class _Run:
     skel: sk.Skeleton
     g: StitchGraph

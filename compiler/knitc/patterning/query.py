@@ -50,7 +50,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 from typing import Any
 
@@ -62,6 +62,7 @@ from knitc.lang import arith
 from knitc.lang.evaluate import show
 from knitc.patterning import grids, raster
 from knitc.patterning.raster import Placement
+from knitc.records import record
 from knitc.shaping.stitch_graph import StitchGraph
 from knitc.source import Span
 
@@ -102,7 +103,7 @@ Y_ALIGN = {
 }
 
 
-@dataclass(frozen=True, eq=False)
+@record(frozen=True, eq=False)
 class LetDef:
     """A `let`'s selection with what the `let` names it mentions meant where it was written
     (`bind_let`). Looking those names up where the selection is used instead made
@@ -130,7 +131,7 @@ it names (E708): a single expression nests at most 100 (E111), but a chain of `l
 naming the one before could nest without end, and evaluation recurses once per level."""
 
 
-@dataclass
+@record
 class QueryEnv:
     """What a query may refer to besides the graph: `#params` and `let`-bound selections.
 
@@ -151,7 +152,7 @@ class QueryError(Exception):
         self.code, self.message, self.span, self.hint = code, message, span, hint
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Coords:
     """Per-stitch query coordinates of a graph (see the module docstring)."""
 

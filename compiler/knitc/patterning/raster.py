@@ -34,12 +34,12 @@ import math
 import os
 import warnings
 from collections.abc import Collection
-from dataclasses import dataclass
 
 import numpy as np
 
 from knitc.access import MAX_IMAGE_BYTES, AccessProblem, active_roots, check_within, read_regular
 from knitc.frontend import ast
+from knitc.records import record
 from knitc.shaping.stitch_graph import INSTRUCTIONS
 
 OFF = -1
@@ -47,7 +47,7 @@ OFF_CELLS = (".", "0")
 """Cells of a chart that select or write nothing."""
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Placement:
     """Where a raster is placed: per-stitch frame coordinates of the stitches in `mask`."""
 

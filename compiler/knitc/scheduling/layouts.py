@@ -29,11 +29,11 @@ an *interface* (a merge or a split), and the connected interface slices form a g
 from __future__ import annotations
 
 from collections import defaultdict
-from dataclasses import dataclass
 from itertools import pairwise
 
 import numpy as np
 
+from knitc.records import record
 from knitc.scheduling import schedule as ir
 from knitc.scheduling.relations import Relations
 from knitc.scheduling.schedule import BACK, CIRCULAR, FLAT
@@ -56,7 +56,7 @@ ORDERS_CAP = 5040
 # ---- layout candidates and their costs ----------------------------------------------------------
 
 
-@dataclass
+@record
 class _Cands:
     params: np.ndarray  # (C, 7): kind, nibble, roll, main, side, spread, mirror
     bed: np.ndarray  # (C, n) int8

@@ -36,11 +36,12 @@ share a needle; alignment records only move held loops.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 import numpy as np
 
+from knitc.records import record
 from knitc.scheduling.slices import ACTIVE, STATE_NAMES, SUSPENDED, Slices
 from knitc.shaping.stitch_graph import StitchGraph
 
@@ -172,7 +173,7 @@ def pair_cost(
 # ---- the IR ---------------------------------------------------------------------------------
 
 
-@dataclass
+@record
 class Schedule:
     """The schedule IR (this module's docstring): each slice's layout and offset, from
     which every cycle entry has its physical needle."""
@@ -253,7 +254,7 @@ def alignments(sched: Schedule, k: int) -> tuple[np.ndarray, np.ndarray, np.ndar
 # ---- loops on the bed ---------------------------------------------------------------------------
 
 
-@dataclass
+@record
 class Loops:
     """The loops held on the bed outside every cycle for a while: loop `stitch` was last
     represented in slice `src` (at cycle entry `src_entry`: its own entry, ACTIVE or

@@ -44,11 +44,11 @@ or `derive` of their source (derived ones), plus the slice's activations and mer
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from knitc.records import record
 from knitc.scheduling.trace import Trace
 from knitc.shaping.stitch_graph import COURSE_KINDS, StitchGraph
 
@@ -56,7 +56,7 @@ EXPECTED, ACTIVE, SUSPENDED = 0, 1, 2
 STATE_NAMES = ("expected", "active", "suspended")
 
 
-@dataclass
+@record
 class Slices:
     """The bed-slice IR (this module's docstring): per-slice arrays, then the flat cycle
     entries every slice owns a run of."""

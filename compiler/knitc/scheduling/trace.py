@@ -25,11 +25,11 @@ Flags:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from knitc.records import record
 from knitc.shaping.stitch_graph import StitchGraph
 
 START, END, TUCK_PREV, JUMP, CARRY, SHIFT, JOIN = 1, 2, 4, 8, 16, 32, 64
@@ -44,7 +44,7 @@ FLAG_NAMES = {
 }
 
 
-@dataclass
+@record
 class Trace:
     """The traced-yarn IR (this module's docstring): one row per visit, `passes` visits
     per stitch, and the tracing `method` that made it, which code generation checks."""

@@ -4,7 +4,7 @@ primitives read while they are built one after the other (`shaping.shape`)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 
@@ -12,12 +12,13 @@ from knitc.diagnostics import Diagnostics
 from knitc.frontend.skeleton import ItfId, PrimNode, Skeleton
 from knitc.lang.evaluate import EvalError
 from knitc.lang.interp import SHAPERS_BUDGET, StepPool
+from knitc.records import record
 from knitc.shaping import stitch_graph as sg
 
 FRONT, BACK = 0, 1
 
 
-@dataclass
+@record
 class Course:
     """A built course: stitch ids in yarn order with their bed and needle in the node frame."""
 
@@ -56,7 +57,7 @@ class Course:
         return int(np.count_nonzero(self.side == FRONT)) if self.circular else self.width
 
 
-@dataclass
+@record
 class Accumulator:
     """Accumulates courses and wales; `finish` turns them into the IR arrays."""
 
@@ -179,7 +180,7 @@ def grid_wales(acc: Accumulator, a: Course, b: Course) -> None:
             acc.wales(a.ids[sa][ia], b.ids[sb][ib])
 
 
-@dataclass
+@record
 class ShapeState:
     skel: Skeleton
     acc: Accumulator

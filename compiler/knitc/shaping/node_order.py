@@ -14,13 +14,13 @@ main yarn runs on whenever it can.
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
 
 from knitc.diagnostics import Diagnostics, Note
 from knitc.frontend.skeleton import ItfId, PrimNode, Skeleton
+from knitc.records import record
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class NodeVisit:
     """One primitive in knitting order, with the interfaces fabric enters and leaves by."""
 

@@ -17,11 +17,12 @@ Conventions:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 import numpy as np
 
+from knitc.records import record
 from knitc.source import Span
 
 INSTRUCTIONS = (
@@ -79,7 +80,7 @@ def two_bed(backing: np.ndarray) -> np.ndarray:
 NONE = -1
 
 
-@dataclass
+@record
 class StitchGraph:
     """Stitches as arrays; courses as contiguous id ranges. See the module docstring."""
 

@@ -19,12 +19,12 @@ image per bed (never an artist per cell), so a 100k-stitch program draws in a se
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from knitc.codegen.machine import Op, pass_index
+from knitc.records import record
 from knitc.view import figure
 
 if TYPE_CHECKING:
@@ -39,7 +39,7 @@ def pass_rows(ops: list[Op]) -> np.ndarray:
     return np.asarray(pass_index(ops), dtype=np.int64)
 
 
-@dataclass
+@record
 class Bed:
     """The grid the picture shows: `cells[bed]` (rows x needles, 0 empty, else 1 +
     index into `figure.OP_CATEGORIES`), the row of each pass, and per row its carriers

@@ -22,11 +22,11 @@ program makes (`view.loops`): one chart per yarn, rows by wale depth.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from knitc.records import record
 from knitc.shaping.stitch_graph import INSTRUCTIONS
 from knitc.view import figure
 
@@ -49,7 +49,7 @@ MIN_WIDTH_PX = 560
 """Room for the title."""
 
 
-@dataclass
+@record
 class Piece:
     """One node's chart on the canvas: its name, top-left cell and size in cells."""
 
@@ -61,7 +61,7 @@ class Piece:
     faces: int
 
 
-@dataclass
+@record
 class Chart:
     """Where everything is: `code[r, c]` (0 empty, else 1 + instruction + 17 * yarn) of
     the canvas, each stitch's canvas cell (`srow`, `scol`), the charts, the pixel scale,

@@ -14,17 +14,16 @@ pulled through twice gains no further wale: the graph is a picture, not a fabric
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from knitc.codegen.machine import MachineProgram, Needle
+from knitc.records import record
 from knitc.shaping.stitch_graph import INSTRUCTIONS, NONE, StitchGraph, empty_pair
 
 _T = INSTRUCTIONS.index("T")
 
 
-@dataclass
+@record
 class LoopGraph:
     """The graph, and per op of the program the loop it made (-1: none)."""
 

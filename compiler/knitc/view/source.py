@@ -2,17 +2,18 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 
 from knitc.codegen.machine import MachineProgram
 from knitc.codegen.simulate import Finding
 from knitc.diagnostics import Diagnostics
 from knitc.driver import Result
+from knitc.records import record
 from knitc.scheduling.schedule import Schedule
 from knitc.shaping.stitch_graph import StitchGraph
 
 
-@dataclass
+@record
 class ViewInput:
     """A machine program and, for a design, the stitch graph and schedule it came from.
 
@@ -35,7 +36,7 @@ class ViewInput:
         return self.graph is not None
 
 
-@dataclass
+@record
 class Loaded:
     diagnostics: Diagnostics
     input: ViewInput | None
