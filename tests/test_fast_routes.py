@@ -20,6 +20,7 @@ from knitc.backends.dat_write import DatWriteError, to_dat
 from knitc.backends.knitout import write_knitout
 from knitc.backends.knitout_read import KnitoutError, knitout_to_dat, parse_knitout
 from knitc.codegen.bed import Pos, Unsupported
+from knitc.codegen.machine import Machine, MachineProgram, Needle
 from knitc.driver import compile_file, compile_source
 from test_stdlib_patterns import CASES, NO_PURL, SHAPES
 from test_transfers import Problem, make_bed
@@ -78,7 +79,25 @@ def _run(prog, fast: bool, **options):
     sim = Simulator(prog, **options)
     sim.fast_path = fast
     findings = sim.run()
-    end = (dict(sim.loops), sim.active, sim.hook, sim.racking, sim.loop_at, sim.loop_prev)
+    end = (
+        dict(sim.loops),
+        sim.active,
+        sim.hook,
+        sim.racking,
+        dict(sim.last_touch),
+        dict(sim.last_use),
+        dict(sim.anchor),
+        dict(sim.missed),
+        sim.loop_at,
+        sim.loop_front,
+        sim.loop_prev,
+        sim.loop_prev_d,
+        sim.loop_next,
+        sim.loop_next_d,
+        sim.loop_more,
+        sim.on_needle,
+        sim.last_loop,
+    )
     return [(f.kind, f.severity, f.message, f.op, f.stitch) for f in findings], end
 
 
@@ -107,6 +126,125 @@ def test_simulator_fast_path_is_the_general_handlers(path: Path, options: dict) 
 def test_simulator_fast_path_on_the_examples(name: str) -> None:
     prog = parse_knitout(example_knitout(name), "t.k")
     assert _run(prog, True, verified=True) == _run(prog, False, verified=True)
+
+
+@st.composite
+def _passes(draw) -> MachineProgram:
+    """A random program of knitting passes: a cast-on, then passes of knits (and now and
+    then a tuck, miss, drop or transfer) over runs of needles with gaps, turning back or
+    not, on either bed, at a racking, sometimes against the direction or on a needle twice:
+    what the simulator's plain-knit runs must simulate exactly as op by op."""
+    prog = MachineProgram(Machine(needles=30, max_misses=draw(st.integers(1, 6))))
+    c = draw(st.sampled_from([(3,), (3,), (4,)]))
+    prog.inhook(c)
+    lo = draw(st.integers(0, 20))
+    width = draw(st.integers(2, 30 - lo))
+    for k in reversed(range(lo, lo + width)):  # a tube's cast-on over [lo, lo + width)
+        prog.tuck(-1, Needle("f", k), c)
+    prog.releasehook(c)
+    for k in range(lo, lo + width):
+        prog.tuck(1, Needle("b", k), c)
+    for k in reversed(range(lo, lo + width)):  # (the first knit of a cast-on loop: W808)
+        prog.knit(-1, Needle("f", k), c)
+    for k in range(lo, lo + width):
+        prog.knit(1, Needle("b", k), c)
+    for _ in range(draw(st.integers(1, 10))):
+        d = draw(st.sampled_from([1, -1]))
+        bed = draw(st.sampled_from(["f", "f", "b"]))
+        plain = draw(st.booleans())  # (one bed, knits only: a run from end to end)
+        if draw(st.booleans()):
+            prog.rack(draw(st.integers(-1, 1)))
+        if plain:  # (a needle here and there left out)
+            needles = [k for k in range(lo, lo + width) if draw(st.integers(0, 9))]
+        else:
+            needles = draw(st.lists(st.integers(max(lo - 2, 0), min(lo + width + 2, 29))))
+        if plain or draw(st.integers(0, 3)):
+            needles = sorted(set(needles), reverse=d < 0)
+        for k in needles:
+            kind = draw(st.sampled_from(["knit"] * 8 + ["tuck", "tuck", "miss", "drop", "xfer"]))
+            other = not plain and not draw(st.integers(0, 5))
+            n = Needle("fb".replace(bed, "") if other else bed, k)
+            kind = "knit" if plain else kind
+            if kind == "xfer":
+                r = int(prog.racking)
+                prog.xfer(n, n.opposite(k - r if n.bed == "f" else k + r))
+            elif kind == "drop":
+                prog.drop(n)
+            else:
+                getattr(prog, kind)(d, n, c)
+    return prog
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(prog=_passes(), options=st.sampled_from([*SIM_OPTIONS[:3], {"max_float": 1}]))
+def test_simulator_fast_path_on_random_passes(prog: MachineProgram, options: dict) -> None:
+    for verified in (False, True):
+        assert _run(prog, True, verified=verified, **options) == _run(
+            prog, False, verified=verified, **options
+        )
+
+
+def _tube(width: int = 10) -> MachineProgram:
+    """A cast-on of `width` needles on both beds, each knitted once (W808 done with)."""
+    prog = MachineProgram(Machine(needles=30, max_misses=2))
+    prog.inhook(3)
+    for k in reversed(range(width)):
+        prog.tuck(-1, Needle("f", k), 3)
+    prog.releasehook(3)
+    for k in range(width):
+        prog.tuck(1, Needle("b", k), 3)
+    for k in reversed(range(width)):
+        prog.knit(-1, Needle("f", k), 3)
+    for k in range(width):
+        prog.knit(1, Needle("b", k), 3)
+    return prog
+
+
+def _knits(prog: MachineProgram, d: int, bed: str, ks) -> MachineProgram:
+    for k in ks:
+        prog.knit(d, Needle(bed, k), 3)
+    return prog
+
+
+def _cast_on_inside() -> MachineProgram:
+    prog = _tube()
+    prog.drop("f5")
+    prog.tuck(-1, "f5", 3)
+    return _knits(prog, -1, "f", reversed(range(10)))
+
+
+def _dropped(needle: str) -> MachineProgram:
+    prog = _tube()
+    prog.drop(needle)
+    return prog
+
+
+def _missed_inside() -> MachineProgram:
+    prog = _tube()
+    for d in (-1, 1, -1, 1):  # f4 missed by four passes (max_misses 2)
+        _knits(prog, d, "f", [k for k in range(10)[::d] if k != 4])
+    return _knits(prog, -1, "f", reversed(range(10)))
+
+
+@pytest.mark.parametrize(
+    "prog",
+    [
+        _cast_on_inside(),
+        _missed_inside(),
+        _knits(_tube(), -1, "f", [9, 8, 7, 3, 2, 1, 0]),  # a long float in the run
+        _knits(_knits(_tube(), -1, "f", [9, 8, 7, 6]), -1, "f", [5, 4, 3, 2, 1]),  # (one pass)
+        _knits(_dropped("f5"), -1, "f", reversed(range(10))),  # an empty needle
+        _knits(_tube(), 1, "b", [0, 1, 2, 3, 4, 5, 6, 7, 8, 9]),
+    ],
+    ids=["cast-on", "missed", "float", "two-runs", "empty", "back"],
+)
+def test_simulator_knit_runs_stop_where_a_knit_needs_a_look(prog: MachineProgram) -> None:
+    """A plain-knit run (`Simulator._knit_run`) stops before the knit whose needle needs the
+    op-by-op way (a cast-on loop, a loop missed too often, a long float, an empty needle)."""
+    for options in ({}, {"max_float": 2}):
+        assert _run(prog, True, verified=True, **options) == _run(
+            prog, False, verified=True, **options
+        )
 
 
 # ---- code generation: the action pass's short cuts against its general route ---------------

@@ -145,6 +145,10 @@ _PASS_KINDS = frozenset({"knit", "tuck", "split", "miss"})
 _FRONT_BEDS, _BACK_BEDS = ("f", "fs"), ("b", "bs")  # (`Needle.is_front`, `.is_back`)
 _SLIDER_BEDS = ("fs", "bs")  # (`Needle.is_slider`)
 
+SHORT_RUN = 4
+"""The fewest plain knits `Simulator._knit_run` simulates together (measured: below it the
+set-up of a run costs more than the ops it saves, as between a lace pattern's eyelets)."""
+
 _PassKey = tuple[int, tuple[int, ...], float]
 """What a knitting pass keeps (direction, carriers, racking): a loop op with another key,
 or one that goes back against the direction, starts a new pass."""
@@ -329,7 +333,13 @@ class Simulator:
         loop_at_append, loop_front_append = loop_at.append, self.loop_front.append
         loop_prev_append, loop_prev_d_append = self.loop_prev.append, self.loop_prev_d.append
         loop_next_append, loop_next_d_append = loop_next.append, loop_next_d.append
-        for i, op in enumerate(self.prog.ops):
+        upto = 0  # ops before this one were simulated in bulk (`_knit_run`)
+        short = 0  # ... and those before this one are a run too short to be worth it
+        ops = self.prog.ops
+        last = len(ops) - 1
+        for i, op in enumerate(ops):
+            if i < upto:
+                continue
             if not verified:
                 self._i = i
                 problems = op_problems(op, machine, carrier_limit=False)
@@ -465,6 +475,11 @@ class Simulator:
                     loop_next_d_append(-1)
                     if k == "knit":
                         on_needle[n] = [x]
+                        # a run is looked for where one can start: at the start of a pass
+                        # or after another kind of op (in a rib's or a cable's pass, where
+                        # the bed changes every few knits, there is none to find)
+                        if i >= short and i < last and (new_pass or ops[i - 1].kind != "knit"):
+                            upto, short = self._knit_run(i)
                     else:
                         on_needle.setdefault(n, []).append(x)
                     continue
@@ -494,6 +509,108 @@ class Simulator:
                     )
                 )
         return self.findings
+
+    def _knit_run(self, i: int) -> tuple[int, int]:
+        """After the fast path's plain knit `i`: the plain knits right after it that go on
+        with its pass, simulated together. Returns the index of the first op not simulated
+        here, and of the first op after the run: a run of fewer than `SHORT_RUN` knits is
+        left to the fast path, op by op (its set-up would cost more than it saves), and is
+        not looked at again.
+
+        In a plain pass (most of every program) the fast path's knits differ only in their
+        needle, so what each checks is a comparison against its neighbour in the run (the
+        same bed, the same direction, one or more needles on, within the float limit, a
+        needle not yet knitted in the pass) and a look at its needle (loops to knit through,
+        not missed too often, not a cast-on loop); the state changes are the fast path's,
+        made for the whole run at once: its loops are a chain of yarn neighbours, each
+        replacing the loops of its needle. A run stops before the first op that differs in
+        any of these (that op takes the usual way); the W806 bookkeeping of reverse stitches
+        in progress, an inserting hook and an open transfer pass keep every op on it."""
+        ops = self.prog.ops
+        first = ops[i]
+        d, cs, (bed, idx) = first.dir, first.carriers, first.needle  # type: ignore[misc]
+        # a glance first: the next knits of a run go the same way, with the same yarn, on
+        # the same bed (a rib's or a cable's short runs stop here, at little cost)
+        for j, o in enumerate(ops[i + 1 : i + 1 + SHORT_RUN], i + 1):
+            if o.kind != "knit" or o.dir != d or o.carriers != cs or o.needle[0] != bed:  # type: ignore[index]
+                return i + 1, j
+        if self.rev_stacked or self.rev_knit or self.hook or self._moved:
+            return i + 1, i + 1
+        front = bed == "f"
+        machine, verified = self.machine, self.verified
+        lo = self.bed_lo
+        hi = lo + machine.needles - 1
+        max_float, max_misses = self.max_float, self.max_misses
+        touched = self._pass_touched[front]
+        loops_get = self.loops.get
+        missed, cast_on_live = self.missed, self.cast_on_live
+        needles: list[Needle] = []
+        idxs: list[int] = []
+        prev = idx
+        j, end = i + 1, len(ops)
+        while j < end:
+            o = ops[j]
+            if o.kind != "knit" or o.dir != d or o.carriers != cs:
+                break
+            n = o.needle
+            if n is None or n[0] != bed:
+                break
+            k = n[1]
+            step = (k - prev) * d
+            if (
+                step <= 0
+                or step > max_float
+                or not lo <= k <= hi
+                or k in touched
+                or not loops_get(n, 0)
+                or (missed and missed.get(n, 0) > max_misses)
+                or (cast_on_live and n in cast_on_live)
+                or (not verified and op_problems(o, machine, carrier_limit=False))
+            ):
+                break
+            needles.append(n)
+            idxs.append(k)
+            prev = k
+            j += 1
+        if len(needles) < SHORT_RUN:
+            return i + 1, j
+        c = cs[0]
+        # _in_pass: the needles knitted, the pass's span on this bed, where the carrier is
+        touched.update(idxs)
+        span = self._pass_span[front]
+        span[0], span[1] = min(span[0], idxs[0], prev), max(span[1], idxs[0], prev)
+        self._pass_pos = prev if front else prev + self.racking
+        # _use and _loop's carrier loop
+        self.last_use[c] = j - 1
+        self.anchor[c] = needles[-1]
+        # _knit_through and _set(n, 1): the old loops knitted off
+        if missed:
+            for n in needles:
+                missed.pop(n, None)
+        self.loops.update(dict.fromkeys(needles, 1))
+        self.last_touch.update(zip(needles, range(i + 1, j)))
+        loop_at, on_needle = self.loop_at, self.on_needle
+        pop = on_needle.pop
+        for n in needles:
+            for x in pop(n, ()):
+                loop_at[x] = None
+        # _new_loop of each: the previous op's loop is its yarn neighbour (on this bed)
+        x0 = len(loop_at)
+        count = len(needles)
+        gaps = [abs(b - a) for a, b in zip([idx, *idxs], idxs)]
+        self.loop_next[x0 - 1] = x0  # (op i's loop: the last made, with no next yet)
+        self.loop_next_d[x0 - 1] = gaps[0]
+        loop_at.extend(needles)
+        self.loop_front.extend([front] * count)
+        self.loop_prev.extend(range(x0 - 1, x0 + count - 1))
+        self.loop_prev_d.extend(gaps)
+        self.loop_next.extend(range(x0 + 1, x0 + count))
+        self.loop_next.append(-1)
+        self.loop_next_d.extend(gaps[1:])
+        self.loop_next_d.append(-1)
+        on_needle.update(zip(needles, ([x] for x in range(x0, x0 + count))))
+        self.last_loop[c] = x0 + count - 1
+        return j, j
 
     # -- needles ------------------------------------------------------------------------------
 
