@@ -38,6 +38,7 @@ from functools import partial
 
 import numpy as np
 
+from knitc import arrays
 from knitc.codegen import actions
 from knitc.codegen import casting as cast
 from knitc.codegen import yarn_stack as stk
@@ -275,7 +276,7 @@ class _Gen:
             if intarsia.any():  # (an intarsia course has no back yarns: `_intarsia_pass`)
                 other &= ~intarsia[g.course]
                 self.intarsia = intarsia
-            for c in np.unique(g.course[other]).tolist():
+            for c in arrays.unique(g.course[other]).tolist():
                 for y in set(g.yarn[g.course_ids(c)].tolist()) - {int(self.course_yarn[c])}:
                     back.setdefault(y, set()).add(c)
             if jacquard is not None and jacquard.any():
@@ -291,8 +292,8 @@ class _Gen:
             self.back_courses = {y: sorted(cs) for y, cs in back.items()}
         if g.inlay is not None and g.inlay.any():  # an inlay yarn rests between its courses
             laid = g.inlay > 0
-            for y in np.unique(g.inlay[laid]).tolist():
-                cs = set(np.unique(g.course[laid & (g.inlay == y)]).tolist())
+            for y in arrays.unique(g.inlay[laid]).tolist():
+                cs = set(arrays.unique(g.course[laid & (g.inlay == y)]).tolist())
                 self.back_courses[y] = sorted(cs | set(self.back_courses.get(y, [])))
 
     def pos(self, s: int) -> Pos:
@@ -693,7 +694,7 @@ def _shaping(gen: _Gen, sub: np.ndarray) -> dict[int, int]:
     in_sub = set(ids.tolist())
     primary: dict[int, int] = {}
     moves = []
-    parents = np.unique(g.wale_prev[ids])
+    parents = arrays.unique(g.wale_prev[ids])
     parents = parents[parents >= 0]
     where, positions = bed.where, gen.positions
     for p, (k0, k1) in zip(parents.tolist(), g.wale_next[parents].tolist(), strict=True):

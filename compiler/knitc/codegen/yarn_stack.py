@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from knitc import arrays
 from knitc.codegen.backing import back_knits
 from knitc.records import record
 from knitc.scheduling import schedule as sc
@@ -69,7 +70,7 @@ class YarnStacks:
         return int(self.stitch.shape[0])
 
     def stats(self) -> dict[str, Any]:
-        fronts = np.unique(self.front).tolist() if self.front.size else []
+        fronts = arrays.unique(self.front).tolist() if self.front.size else []
         out: dict[str, Any] = {"stitches": int(self.front.shape[0]), "front_yarns": fronts}
         for m, name in MODE_NAMES.items():
             out[name] = int(np.count_nonzero((self.mode == m) & ~self.inlay))
@@ -96,7 +97,7 @@ def part_cuts(g: StitchGraph, t: Trace, sched: sc.Schedule) -> tuple[np.ndarray,
     """(cuts, course bounds): the visits where a course or one of the schedule's slices
     begins, and where each course begins (with 0 and the end)."""
     course_cuts = np.nonzero(np.diff(g.course[t.stitch]) != 0)[0] + 1
-    cuts = np.union1d(course_cuts, sched.slices.visit[1:])
+    cuts = arrays.union(course_cuts, sched.slices.visit[1:])
     return cuts, np.r_[0, course_cuts, t.n_visits]
 
 
@@ -178,8 +179,8 @@ def region_yarns(g: StitchGraph) -> dict[int, list[int]]:
     assert g.yarn is not None and g.backing is not None
     jacquard = two_bed(g.backing)
     return {
-        node: np.unique(g.yarn[jacquard & (g.node == node)]).tolist()
-        for node in np.unique(g.node[jacquard]).tolist()
+        node: arrays.unique(g.yarn[jacquard & (g.node == node)]).tolist()
+        for node in arrays.unique(g.node[jacquard]).tolist()
     }
 
 

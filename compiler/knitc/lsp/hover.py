@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from lsprotocol import types
 
+from knitc import arrays
 from knitc.frontend import ast
 from knitc.frontend import skeleton as sk
 from knitc.frontend.fmt import format_expr
@@ -749,7 +750,7 @@ def yarn_counts(graph: StitchGraph, name: str) -> tuple[int, int] | None:
     if graph.yarn is None or name not in graph.yarn_names:
         return None
     mine = graph.yarn == graph.yarn_names.index(name)
-    return int(np.count_nonzero(mine)), int(np.unique(graph.course[mine]).size)
+    return int(np.count_nonzero(mine)), int(arrays.unique(graph.course[mine]).size)
 
 
 def yarn_markdown(a: Analysis, name: str) -> str | None:

@@ -37,6 +37,7 @@ from collections import Counter
 
 import numpy as np
 
+from knitc import arrays
 from knitc.diagnostics import Diagnostics, Note, at_designer
 from knitc.records import record
 from knitc.shaping.stitch_graph import INSTRUCTIONS, StitchGraph
@@ -234,7 +235,7 @@ class _Check:
     def crosses(self) -> None:
         g, instr = self.g, self.instr
         ok = np.zeros(g.n_stitches, bool)
-        for c in np.unique(g.course[np.isin(instr, CROSSES)]).tolist():
+        for c in arrays.unique(g.course[np.isin(instr, CROSSES)]).tolist():
             for cab in cables(g, g.course_ids(c), self.right, self.left):
                 grp = np.array(cab.group)
                 reach = (len(grp) - min(cab.first, cab.second)) * int(g.course_gauge[c])

@@ -27,6 +27,7 @@ from typing import cast
 
 import numpy as np
 
+from knitc import arrays
 from knitc.diagnostics import Diagnostics, Note
 from knitc.frontend import ast
 from knitc.frontend import skeleton as sk
@@ -118,9 +119,9 @@ def _check_fair_isle(run: _Run) -> None:
     if g.n_stitches == 0:
         return
     first = np.repeat(yarn[g.course_start], g.course_len)
-    mixed = np.unique(g.course[yarn != first])
+    mixed = arrays.unique(g.course[yarn != first])
     if run.backing is not None:  # a jacquard course knits every yarn of its region
-        mixed = np.union1d(mixed, g.course[run.backing >= TWO_BED])
+        mixed = arrays.union(mixed, g.course[run.backing >= TWO_BED])
     if mixed.size == 0:
         return
     increase = np.zeros(g.n_stitches, bool)
@@ -148,7 +149,7 @@ def _check_fair_isle(run: _Run) -> None:
     for k, bad in by_stmt.items():
         c, why = bad[0]
         ids = g.course_ids(c)
-        used = [run.g_names[int(y)] for y in np.unique(yarn[ids]).tolist()]
+        used = [run.g_names[int(y)] for y in arrays.unique(yarn[ids]).tolist()]
         node = g.node_names[int(g.course_node[c])]
         more = f" (and {len(bad) - 1} more course{'s' * (len(bad) > 2)})"
         run.diags.error(
@@ -199,7 +200,7 @@ def _check_backing(run: _Run) -> None:
             "yarns float (fair isle, `backing float`)",
         ),
     ):
-        for k in np.unique(where[bad]).tolist():
+        for k in arrays.unique(where[bad]).tolist():
             sel = bad & (where == k)
             c = int(g.course[np.argmax(sel)])
             node = g.node_names[int(g.course_node[c])]

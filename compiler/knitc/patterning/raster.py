@@ -37,6 +37,7 @@ from collections.abc import Collection
 
 import numpy as np
 
+from knitc import arrays
 from knitc.access import MAX_IMAGE_BYTES, AccessProblem, active_roots, check_within, read_regular
 from knitc.frontend import ast
 from knitc.records import record
@@ -354,5 +355,5 @@ def overflow(values: np.ndarray, p: Placement) -> bool:
     too_tall = np.any((rhi - rlo + 1)[m] < values.shape[0])
     widest = np.zeros(int(p.group.max(initial=0)) + 1, dtype=np.int64)
     np.maximum.at(widest, p.group[m], (chi - clo + 1)[m])
-    too_wide = np.any(widest[np.unique(p.group[m])] < values.shape[1])
+    too_wide = np.any(widest[arrays.unique(p.group[m])] < values.shape[1])
     return bool(too_tall or too_wide)

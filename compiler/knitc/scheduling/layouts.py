@@ -33,6 +33,7 @@ from itertools import pairwise
 
 import numpy as np
 
+from knitc import arrays
 from knitc.records import record
 from knitc.scheduling import schedule as ir
 from knitc.scheduling.relations import Relations
@@ -96,7 +97,7 @@ def _circular_cands(
         if window is None or 2 * window + 1 >= n:
             rolls = np.arange(n)
         else:
-            rolls = np.unique((est + np.arange(-window, window + 1)) % n)
+            rolls = arrays.unique((est + np.arange(-window, window + 1)) % n)
         b, o = ir.circular_layouts(n, nb, rolls)
         dist = np.abs(rolls - est)
         dist = np.minimum(dist, n - dist)

@@ -8,6 +8,7 @@ from dataclasses import field
 
 import numpy as np
 
+from knitc import arrays
 from knitc.diagnostics import Diagnostics
 from knitc.frontend.skeleton import ItfId, PrimNode, Skeleton
 from knitc.lang.evaluate import EvalError
@@ -48,7 +49,7 @@ class Course:
         """The ids as they lie on the bed: a ring counter-clockwise (its yarn order), a flat
         course left to right (whichever way the yarn went), a flat course round a fold (an
         unfolded split's branch across the fold) along the fold, as it was laid out."""
-        if self.circular or np.unique(self.side).size > 1:
+        if self.circular or arrays.unique(self.side).size > 1:
             return self.ids
         return self.flat()
 

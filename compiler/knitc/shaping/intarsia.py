@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from knitc import arrays
 from knitc.shaping.stitch_graph import StitchGraph
 
 
@@ -52,7 +53,7 @@ def regions(g: StitchGraph) -> np.ndarray:
     keep = on[parent] & (g.yarn[parent] == g.yarn[child])
     a, b = run[parent[keep]], run[child[keep]]
     # a round's first and last runs of one yarn are one run across the wrap
-    circ = np.unique(g.course[ids][g.course_circular[g.course[ids]]])
+    circ = arrays.unique(g.course[ids][g.course_circular[g.course[ids]]])
     head = g.course_start[circ]
     tail = head + g.course_len[circ] - 1
     wrap = g.yarn[head] == g.yarn[tail]

@@ -7,6 +7,7 @@ from typing import cast
 
 import numpy as np
 
+from knitc import arrays
 from knitc.frontend.skeleton import ItfId, PrimNode
 from knitc.lang.evaluate import Profile, round_half_up
 from knitc.shaping.courses import (
@@ -29,7 +30,7 @@ def build_joint(state: ShapeState, node: PrimNode, visit: NodeVisit) -> None:
     gauge = state.gauge(node)
     itf = skel.interfaces[ItfId(node.name, entry)]
     if bottom is not None:  # the course the joint continues decides its shape
-        if not bottom.circular and np.unique(bottom.side).size > 1:
+        if not bottom.circular and arrays.unique(bottom.side).size > 1:
             state.diags.error(
                 "E533",
                 f"joint `{node.name}` cannot continue a course closed "

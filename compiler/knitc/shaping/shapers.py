@@ -54,6 +54,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from knitc import arrays
 from knitc.frontend import ast
 from knitc.lang.evaluate import EvalError, Value, round_half_up, show, type_name
 from knitc.lang.interp import DEFAULT_BUDGET, Interpreter, StepPool, whole
@@ -98,7 +99,7 @@ def mapping_from_pairs(M: int, N: int, small, large) -> np.ndarray:
         )
     # The second wale (in order) onto an already mapped larger-course stitch is the culprit.
     _, first = np.unique(large, return_index=True)
-    dup = np.setdiff1d(np.arange(large.size), first)
+    dup = arrays.difference(np.arange(large.size), first)
     if dup.size:
         k = int(dup[0])
         raise MappingError(
@@ -107,7 +108,7 @@ def mapping_from_pairs(M: int, N: int, small, large) -> np.ndarray:
             "each stitch of the larger course continues exactly one stitch",
         )
     if large.size < N:
-        j = int(np.setdiff1d(np.arange(N), large)[0])
+        j = int(arrays.difference(np.arange(N), large)[0])
         raise MappingError(
             f"stitch {j} of the larger course is not mapped",
             None,

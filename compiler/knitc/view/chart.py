@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from knitc import arrays
 from knitc.records import record
 from knitc.shaping.stitch_graph import INSTRUCTIONS
 from knitc.view import figure
@@ -298,7 +299,7 @@ def render(input: ViewInput, fmt: str) -> bytes:
             va="bottom",
             fontsize=8,
         )
-    present = sorted({int(i) for i in np.unique(g.instr)}) if g.n_stitches else []
+    present = sorted({int(i) for i in arrays.unique(g.instr)}) if g.n_stitches else []
     handles = [
         Patch(
             facecolor=figure.INSTR_COLOURS[INSTRUCTIONS[i]],
@@ -309,7 +310,7 @@ def render(input: ViewInput, fmt: str) -> bytes:
         for i in present
     ]
     if ch.yarn_fills:
-        used = set(np.unique(g.yarn).tolist()) if g.yarn is not None else set()
+        used = set(arrays.unique(g.yarn).tolist()) if g.yarn is not None else set()
         handles += [
             Patch(facecolor=fill, edgecolor="#666666", linewidth=0.5, label=f"yarn {name}")
             for y, (name, fill) in enumerate(zip(g.yarn_names[1:], ch.yarn_fills), 1)

@@ -23,6 +23,8 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from knitc import arrays
+
 if TYPE_CHECKING:
     from knitc.scheduling.schedule import Schedule
     from knitc.shaping.stitch_graph import StitchGraph
@@ -143,7 +145,7 @@ def grow(graph: StitchGraph, pos: np.ndarray) -> np.ndarray:
             centre = new.mean(axis=0)
             _, sv, vt = np.linalg.svd(new - centre, full_matrices=False)
             normal = vt[2]
-            merge = np.unique(graph.node[q[h]]).shape[0] > 1
+            merge = arrays.unique(graph.node[q[h]]).shape[0] > 1
             if merge or sv[1] < 0.25 * sv[0]:
                 # where pieces merge (their tops at their own heights), or on a ring that is
                 # nearly a line (an arc of a flattened piece), keep growing the parents' way
