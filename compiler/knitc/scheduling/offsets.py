@@ -78,6 +78,17 @@ class Offsets:
                 self.alive[r].append(ns + gi)
         self.x = np.zeros(self.nv, np.int64)
         self.placed = np.zeros(self.nv, bool)
+        # (`run`'s lists of the same, and of the arrays its placement reads)
+        self._xl: list[int] = []
+        self._pl: list[bool] = []
+        self._src: list[int] = []
+        self._cons: list[int] = []
+        self._lo: list[list[int]] = []
+        self._hi: list[list[int]] = []
+        self._any_lo: list[int] = []
+        self._any_hi: list[int] = []
+        self._centre: list[float] = []
+        self._even: list[bool] = []
 
     # -- blocks
 
@@ -178,13 +189,15 @@ class Offsets:
         block, so blocks keep the left-to-right order of the first estimate (loops cannot
         travel through other loops)."""
         ns = self.ctx.ns
-        rows = [v] if v < ns else range(int(self.src[v]) + 1, int(self.cons[v]))
+        src, cons, centre, placed, xs = self._src, self._cons, self._centre, self._pl, self._xl
+        lo_, hi_, any_lo, any_hi = self._lo, self._hi, self._any_lo, self._any_hi
+        rows = [v] if v < ns else range(src[v] + 1, cons[v])
         out: list[tuple[int, int]] = []
         inf = 1 << 40
 
         def add(lo: int, hi: int, w: int) -> None:
             if ordered:
-                if self.centre[w] >= self.centre[v]:
+                if centre[w] >= centre[v]:
                     hi = inf
                 else:
                     lo = -inf
@@ -193,22 +206,19 @@ class Offsets:
         for r in rows:
             others = ([r] if v >= ns else []) + self.alive[r]
             for w in others:
-                if w == v or not self.placed[w]:
+                if w == v or not placed[w]:
                     continue
-                xw = int(self.x[w])
+                xw = xs[w]
+                lv, hv, lw, hw = lo_[v], hi_[v], lo_[w], hi_[w]
                 for b in (0, 1):
-                    if self.lo[v, b] <= self.hi[v, b] and self.lo[w, b] <= self.hi[w, b]:
-                        add(
-                            xw + int(self.lo[w, b] - self.hi[v, b]),
-                            xw + int(self.hi[w, b] - self.lo[v, b]),
-                            w,
-                        )
+                    if lv[b] <= hv[b] and lw[b] <= hw[b]:
+                        add(xw + lw[b] - hv[b], xw + hw[b] - lv[b], w)
                 if v < ns and v in self.zone and w >= ns and not self._related(v, w):
                     zl, zh = self.zone[v]
-                    add(xw + int(self.any_lo[w]) - zh, xw + int(self.any_hi[w]) - zl, w)
+                    add(xw + any_lo[w] - zh, xw + any_hi[w] - zl, w)
                 if w < ns and w in self.zone and v >= ns and not self._related(w, v):
                     zl, zh = self.zone[w]
-                    add(xw + zl - int(self.any_hi[v]), xw + zh - int(self.any_lo[v]), w)
+                    add(xw + zl - any_hi[v], xw + zh - any_lo[v], w)
         return out
 
     def _related(self, k: int, g: int) -> bool:
@@ -216,13 +226,13 @@ class Offsets:
         or it comes from or goes to k's node, its parent node or its child node (the pieces
         of one split or merge, which the interface layout puts side by side)."""
         node = self.ctx.sl.node
-        n, a, b = int(node[k]), int(node[self.src[g]]), int(node[self.cons[g]])
-        return int(self.cons[g]) == k or n in (a, b) or (n, b) in self.links or (a, n) in self.links
+        n, a, b = int(node[k]), int(node[self._src[g]]), int(node[self._cons[g]])
+        return self._cons[g] == k or n in (a, b) or (n, b) in self.links or (a, n) in self.links
 
     def _free(self, v: int, ordered: bool) -> list[tuple[int, int]]:
         """The free places of v's offset, as closed intervals (see `_forbidden`)."""
-        lo = MARGIN - int(self.any_lo[v])
-        hi = self.needles - 1 - int(self.any_hi[v])
+        lo = MARGIN - self._any_lo[v]
+        hi = self.needles - 1 - self._any_hi[v]
         segs = []
         cur = lo
         for a, b in sorted(self._forbidden(v, ordered)):
@@ -241,7 +251,7 @@ class Offsets:
         best = None
         for s0, s1 in segs:
             t = int(min(max(round(target), s0), s1))
-            for c in (t - 1, t + 1) if self.even[v] and t % 2 else (t,):
+            for c in (t - 1, t + 1) if self._even[v] and t % 2 else (t,):
                 if s0 <= c <= s1 and (
                     best is None or (abs(c - target), c) < (abs(best - target), best)
                 ):
@@ -251,10 +261,11 @@ class Offsets:
     def _score(self, v: int, t: int, placed_only: bool) -> tuple[float, float]:
         """(related loops that move, L2 offset error) of v at offset t."""
         moved = err = 0.0
+        placed, xs = self._pl, self._xl
         for o, w, m, h in self.adj[v]:
-            if placed_only and not self.placed[o]:
+            if placed_only and not placed[o]:
                 continue
-            rel = t - int(self.x[o])
+            rel = t - xs[o]
             moved += w - h.get(rel, 0)
             err += w * (rel - m) ** 2
         return moved, err
@@ -277,13 +288,14 @@ class Offsets:
             return None
         sw = sx = 0.0
         targets: list[float] = []
+        placed, xs = self._pl, self._xl
         for o, w, m, h in self.adj[v]:
-            if placed_only and not self.placed[o]:
+            if placed_only and not placed[o]:
                 continue
             sw += w
-            sx += w * (self.x[o] + m)
+            sx += w * (xs[o] + m)
             for val in sorted(h, key=lambda x: -h[x])[:3]:
-                targets.append(float(self.x[o] + val))
+                targets.append(float(xs[o] + val))
         targets.append(sx / sw if sw else seed)
         best = None
         for tg in targets:
@@ -349,30 +361,42 @@ class Offsets:
     def run(self) -> bool:
         ns = self.ctx.ns
         seed = self._seed()
-        # time order: a slice at its row, a held block right after the slice it leaves
-        order = sorted(range(self.nv), key=lambda v: (int(self.src[v]), v >= ns, v))
-        for v in order:
-            got = self._best(v, True, float(seed[v]))
-            if got is None:
-                self.failed_slice = int(self.src[v])
-                return False
-            self.x[v] = got
-            self.placed[v] = True
-        for _ in range(max(self.max_sweeps // 2, 0)):
-            moved = False
-            for seq in (order[::-1], order):
-                for v in seq:
-                    if not self.adj[v]:
-                        continue
-                    got = self._best(v, False, float(self.x[v]))
-                    if got is None or got == self.x[v]:
-                        continue
-                    if self._score(v, got, False) < self._score(v, int(self.x[v]), False):
-                        self.x[v] = got
-                        moved = True
-            if not moved:
-                break
-        return True
+        # The placement reads a few values of a block at a time, thousands of times: from
+        # lists (a numpy scalar costs several times a list item to read), `x` and
+        # `placed` kept there too and written back to the arrays at the end.
+        self._src, self._cons = self.src.tolist(), self.cons.tolist()
+        self._lo, self._hi = self.lo.tolist(), self.hi.tolist()
+        self._any_lo, self._any_hi = self.any_lo.tolist(), self.any_hi.tolist()
+        self._centre, self._even = self.centre.tolist(), self.even.tolist()
+        xs, placed = self._xl, self._pl = [0] * self.nv, [False] * self.nv
+        try:
+            # time order: a slice at its row, a held block right after the slice it leaves
+            order = sorted(range(self.nv), key=lambda v: (self._src[v], v >= ns, v))
+            for v in order:
+                got = self._best(v, True, float(seed[v]))
+                if got is None:
+                    self.failed_slice = self._src[v]
+                    return False
+                xs[v] = got
+                placed[v] = True
+            for _ in range(max(self.max_sweeps // 2, 0)):
+                moved = False
+                for seq in (order[::-1], order):
+                    for v in seq:
+                        if not self.adj[v]:
+                            continue
+                        got = self._best(v, False, float(xs[v]))
+                        if got is None or got == xs[v]:
+                            continue
+                        if self._score(v, got, False) < self._score(v, xs[v], False):
+                            xs[v] = got
+                            moved = True
+                if not moved:
+                    break
+            return True
+        finally:
+            self.x = np.array(xs, np.int64)
+            self.placed = np.array(placed, bool)
 
     # -- results
 
