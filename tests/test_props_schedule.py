@@ -130,6 +130,52 @@ def test_generated_garments_get_a_valid_schedule(prog, tracer, limit):
     check_schedule(g, sl, sched)
 
 
+def represented_one(g, sl, k, made, end):
+    """Slice k's represented loops and their entries, computed for that slice alone with
+    Python sets: the definition `schedule._represented` computes for many slices at once."""
+    st, state = sl.cycle(k)
+    a = int(sl.start[k])
+    here = set(st.tolist())
+    own, parents = [], {0: [], 1: []}
+    for i, (s, x) in enumerate(zip(st.tolist(), state.tolist(), strict=True)):
+        if x != SUSPENDED and x != ACTIVE:  # (EXPECTED: its loops come from its parents)
+            for j in (0, 1):
+                p = int(g.wale_prev[s, j])
+                if p >= 0:
+                    first = int(g.wale_next[p, 0])
+                    if first == s or max(first, 0) not in here:
+                        parents[j].append((p, a + i))
+            continue
+        own.append((s, a + i))
+        if x == ACTIVE:
+            for j in (0, 1):
+                p = int(g.wale_prev[s, j])
+                if p >= 0:
+                    first = int(g.wale_next[p, 0])
+                    if first == s or max(first, 0) not in here:
+                        parents[j].append((p, a + i))
+    pairs = [(lo, en) for lo, en in own + parents[0] + parents[1] if made[lo] <= k <= end[lo]]
+    return [lo for lo, _ in pairs], [en for _, en in pairs]
+
+
+@settings(SETTINGS, max_examples=25)
+@given(programs(), st.sampled_from(sorted(TRACERS)), st.sampled_from([1, 5, 1 << 18]))
+def test_represented_loops_are_each_slices_own(prog, tracer, chunk):
+    """`_represented` (many slices per numpy call, `chunk` entries at a time) gives each
+    slice the loops and entries its definition does, slice by slice."""
+    _, g = compile_graph(prog)
+    sl = slice_trace(g, TRACERS[tracer](g))
+    made, end = ir._lifetimes(g, sl)
+    old, ir._CHUNK = ir._CHUNK, chunk
+    try:
+        got = [(k, lo.tolist(), en.tolist()) for k, lo, en in ir._represented(g, sl, made, end)]
+    finally:
+        ir._CHUNK = old
+    assert [k for k, _, _ in got] == list(range(sl.n_slices))
+    for k, lo, en in got:
+        assert (lo, en) == represented_one(g, sl, k, made.tolist(), end.tolist())
+
+
 def _narrow_machine(g) -> str:
     sl = slice_trace(g, trace_courses(g))
     diags = Diagnostics()

@@ -298,10 +298,10 @@ class Layouts:
             return None
         pa, pb = ctx.edge_pairs(e)
         ia, ib = pa - ctx.start[a], pb - ctx.start[b]
-        if np.any(np.bincount(ia, minlength=n) != 1) or np.any(np.bincount(ib, minlength=n) != 1):
+        if (np.bincount(ia, minlength=n) != 1).any() or (np.bincount(ib, minlength=n) != 1).any():
             return None
         d = (ib - ia) % n
-        if np.any(d != d[0]) or (not ctx.sl.circular[a] and d[0] != 0):
+        if (d != d[0]).any() or (not ctx.sl.circular[a] and d[0] != 0):
             return None
         return int(d[0])
 

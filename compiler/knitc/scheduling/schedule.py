@@ -268,34 +268,64 @@ class Loops:
     cons_entry: np.ndarray  # int64
 
 
+_CHUNK = 1 << 18
+"""Entries of the slices `_represented` takes at once (a million-stitch tube has two
+million: its scratch arrays stay a few megabytes this way)."""
+
+
 def _represented(
-    g: StitchGraph, sl: Slices, k: int, made: np.ndarray, end: np.ndarray, mark: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """(loops, entries) represented in slice k, one entry per loop: a stitch's own entry
-    (ACTIVE: made here; SUSPENDED), else the entry of the next wale that will take it in
-    (an increase's loop goes into its first next wale, as the code generator does, or into
-    the second when the first is not in the cycle). A loop lives from the first slice that
-    knits its stitch to the first that knits a next wale of it; later appearances (an
-    increase's second next wale) hold no loop. `mark` is scratch space, one per stitch."""
-    a = int(sl.start[k])
-    b = a + int(sl.length[k])
-    st = sl.stitch[a:b].astype(np.int64)
-    state = sl.state[a:b]
-    ent = np.arange(a, b, dtype=np.int64)
-    mark[st] = k
-    kid = state != SUSPENDED
-    loops, entries = [st[~kid | (state == ACTIVE)]], [ent[~kid | (state == ACTIVE)]]
-    for j in (0, 1):
-        p = g.wale_prev[st, j].astype(np.int64)
-        m = kid & (p >= 0)
-        q = p[m]
-        first = g.wale_next[q, 0]
-        take = (first == st[m]) | (mark[np.maximum(first, 0)] != k)
-        loops.append(q[take])
-        entries.append(ent[m][take])
-    lo, en = np.concatenate(loops), np.concatenate(entries)
-    ok = (k >= made[lo]) & (k <= end[lo])
-    return lo[ok], en[ok]
+    g: StitchGraph, sl: Slices, made: np.ndarray, end: np.ndarray
+) -> Iterator[tuple[int, np.ndarray, np.ndarray]]:
+    """For each slice k in order: (k, loops, entries) represented in slice k, one entry per
+    loop: a stitch's own entry (ACTIVE: made here; SUSPENDED), else the entry of the next
+    wale that will take it in (an increase's loop goes into its first next wale, as the
+    code generator does, or into the second when the first is not in the cycle). A loop
+    lives from the first slice that knits its stitch to the first that knits a next wale of
+    it; later appearances (an increase's second next wale) hold no loop. Each slice's own
+    loops come first, then those of its stitches' first and their second parents, in the
+    order of the slice's entries.
+
+    Computed for many slices at once (up to `_CHUNK` entries): a numpy call per slice cost
+    more than the work on a small design's short cycles. "Is the parent's first next wale
+    in slice k" is a lookup of (k, stitch) among the chunk's sorted (slice, stitch) keys."""
+    n = max(g.n_stitches, 1)
+    k0 = 0
+    while k0 < sl.n_slices:
+        a = int(sl.start[k0])
+        k1 = k0 + 1
+        while k1 < sl.n_slices and int(sl.start[k1]) + int(sl.length[k1]) - a <= _CHUNK:
+            k1 += 1
+        b = int(sl.start[k1 - 1]) + int(sl.length[k1 - 1])
+        st = sl.stitch[a:b].astype(np.int64)
+        state = sl.state[a:b]
+        ent = np.arange(a, b, dtype=np.int64)
+        ks = np.repeat(np.arange(k0, k1, dtype=np.int64), sl.length[k0:k1])
+        keys = np.sort(ks * n + st)
+        kid = state != SUSPENDED
+        own = ~kid | (state == ACTIVE)
+        los, ens, kss, grp = [st[own]], [ent[own]], [ks[own]], [np.zeros(int(own.sum()), np.int8)]
+        for j in (0, 1):
+            p = g.wale_prev[st, j].astype(np.int64)
+            m = kid & (p >= 0)
+            q, km = p[m], ks[m]
+            first = g.wale_next[q, 0].astype(np.int64)
+            want = km * n + np.maximum(first, 0)
+            at = np.minimum(np.searchsorted(keys, want), keys.size - 1)
+            take = (first == st[m]) | (keys[at] != want)
+            los.append(q[take])
+            ens.append(ent[m][take])
+            kss.append(km[take])
+            grp.append(np.full(int(take.sum()), j + 1, np.int8))
+        lo, en, kk = np.concatenate(los), np.concatenate(ens), np.concatenate(kss)
+        order = np.lexsort((en, np.concatenate(grp), kk))
+        lo, en, kk = lo[order], en[order], kk[order]
+        ok = (kk >= made[lo]) & (kk <= end[lo])
+        lo, en, kk = lo[ok], en[ok], kk[ok]
+        bounds = np.searchsorted(kk, np.arange(k0, k1 + 1)).tolist()
+        for k in range(k0, k1):
+            i, j = bounds[k - k0], bounds[k - k0 + 1]
+            yield k, lo[i:j], en[i:j]
+        k0 = k1
 
 
 def _lifetimes(g: StitchGraph, sl: Slices) -> tuple[np.ndarray, np.ndarray]:
@@ -318,13 +348,11 @@ def held_loops(g: StitchGraph, sl: Slices) -> Loops:
     made, end = _lifetimes(g, sl)
     last = np.full(g.n_stitches, -1, np.int64)
     last_e = np.full(g.n_stitches, -1, np.int64)
-    mark = np.full(g.n_stitches, -1, np.int64)
     out: list[tuple[np.ndarray, ...]] = []
-    for k in range(sl.n_slices):
-        lo, en = _represented(g, sl, k, made, end, mark)
+    for k, lo, en in _represented(g, sl, made, end):
         prev = last[lo]
         gap = (prev >= 0) & (prev < k - 1)
-        if np.any(gap):
+        if gap.any():
             u = lo[gap]
             out.append((u, last[u], np.full(u.shape[0], k, np.int64), last_e[u], en[gap]))
         last[lo] = k
@@ -348,9 +376,7 @@ def placements(
     performs before each slice, and what `loop_moves` counts."""
     sl = sched.slices
     made, end = _lifetimes(g, sl)
-    mark = np.full(g.n_stitches, -1, np.int64)
-    for k in range(sl.n_slices):
-        rep, en = _represented(g, sl, k, made, end, mark)
+    for k, rep, en in _represented(g, sl, made, end):
         yield k, alignments(sched, k), (rep, sched.bed[en], sched.needle[en])
 
 

@@ -273,7 +273,7 @@ def derive(
     ).astype(np.uint8)
     open_kid = (k >= 0) & (done[np.maximum(k, 0)] < passes)
     valid = np.stack([stay | susp | (repl & open_kid[:, 0]), repl & open_kid[:, 1]], 1)
-    if fold is not None and np.any(repl & fold[st]):
+    if fold is not None and (repl & fold[st]).any():
         back = repl & fold[st] & valid[:, 1]
         valid[:, 1] &= ~back
         tail_st, tail_state = cand[back, 1][::-1], cstate[back, 1][::-1]

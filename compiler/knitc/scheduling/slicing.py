@@ -231,7 +231,7 @@ class _Slicer:
 
     def _both_beds(self, st: np.ndarray) -> bool:
         side = self.g.side[st]
-        return bool(np.any(side == 0) and np.any(side == 1))
+        return bool((side == 0).any() and (side == 1).any())
 
     def _discard(self) -> None:
         self.pos[self.cur_st] = -1
