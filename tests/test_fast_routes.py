@@ -97,6 +97,12 @@ def _run(prog, fast: bool, **options):
         sim.loop_more,
         sim.on_needle,
         sim.last_loop,
+        # (the open knitting pass: which needles it knitted, its span, where it is)
+        sim._pass_key,
+        sim._pass_pos,
+        sim._pass_span,
+        sim._pass_touched,
+        sim._passes,
     )
     return [(f.kind, f.severity, f.message, f.op, f.stitch) for f in findings], end
 
@@ -132,8 +138,9 @@ def test_simulator_fast_path_on_the_examples(name: str) -> None:
 def _passes(draw) -> MachineProgram:
     """A random program of knitting passes: a cast-on, then passes of knits (and now and
     then a tuck, miss, drop or transfer) over runs of needles with gaps, turning back or
-    not, on either bed, at a racking, sometimes against the direction or on a needle twice:
-    what the simulator's plain-knit runs must simulate exactly as op by op."""
+    not, on one bed or from bed to bed, at a racking, sometimes against the direction or
+    on a needle twice: what the simulator's plain-knit runs must simulate exactly as op by
+    op."""
     prog = MachineProgram(Machine(needles=30, max_misses=draw(st.integers(1, 6))))
     c = draw(st.sampled_from([(3,), (3,), (4,)]))
     prog.inhook(c)
@@ -151,7 +158,8 @@ def _passes(draw) -> MachineProgram:
     for _ in range(draw(st.integers(1, 10))):
         d = draw(st.sampled_from([1, -1]))
         bed = draw(st.sampled_from(["f", "f", "b"]))
-        plain = draw(st.booleans())  # (one bed, knits only: a run from end to end)
+        plain = draw(st.booleans())  # (knits only: a run from end to end)
+        rib = plain and draw(st.integers(0, 2))  # (... going from bed to bed, as a rib's)
         if draw(st.booleans()):
             prog.rack(draw(st.integers(-1, 1)))
         if plain:  # (a needle here and there left out)
@@ -162,7 +170,7 @@ def _passes(draw) -> MachineProgram:
             needles = sorted(set(needles), reverse=d < 0)
         for k in needles:
             kind = draw(st.sampled_from(["knit"] * 8 + ["tuck", "tuck", "miss", "drop", "xfer"]))
-            other = not plain and not draw(st.integers(0, 5))
+            other = (k // rib) % 2 if rib else not plain and not draw(st.integers(0, 5))
             n = Needle("fb".replace(bed, "") if other else bed, k)
             kind = "knit" if plain else kind
             if kind == "xfer":
@@ -206,6 +214,16 @@ def _knits(prog: MachineProgram, d: int, bed: str, ks) -> MachineProgram:
     return prog
 
 
+def _rib(racking: int, knits: list[tuple[int, int]]) -> MachineProgram:
+    """A pass of knits going + from bed to bed at `racking`: (front?, needle) each, a needle
+    now and then met twice or behind the pass's position (where a run must stop)."""
+    prog = _tube()
+    prog.rack(racking)
+    for front, k in knits:
+        prog.knit(1, Needle("f" if front else "b", k), 3)
+    return prog
+
+
 def _cast_on_inside() -> MachineProgram:
     prog = _tube()
     prog.drop("f5")
@@ -235,8 +253,16 @@ def _missed_inside() -> MachineProgram:
         _knits(_knits(_tube(), -1, "f", [9, 8, 7, 6]), -1, "f", [5, 4, 3, 2, 1]),  # (one pass)
         _knits(_dropped("f5"), -1, "f", reversed(range(10))),  # an empty needle
         _knits(_tube(), 1, "b", [0, 1, 2, 3, 4, 5, 6, 7, 8, 9]),
+        _rib(0, [(1, 0), (1, 1), (1, 2), (1, 3), (0, 3), (1, 4), (1, 5), (0, 5), (0, 6)]),
+        _rib(0, [(1, 0), (1, 1), (1, 2), (0, 2), (1, 2), (1, 3), (1, 4), (1, 5), (1, 6)]),
+        _rib(-1, [(1, 0), (0, 1), (1, 1), (0, 2), (1, 2), (0, 3), (1, 3), (1, 4), (1, 5)]),
+        _rib(-1, [(1, 0), (1, 1), (1, 2), (0, 2), (0, 3), (1, 3), (1, 4), (1, 5), (1, 6)]),
+        _rib(1, [(1, 0), (0, 0), (1, 1), (0, 1), (1, 2), (0, 2), (0, 3), (1, 4), (0, 5)]),
     ],
-    ids=["cast-on", "missed", "float", "two-runs", "empty", "back"],
+    ids=[
+        *("cast-on", "missed", "float", "two-runs", "empty", "back"),
+        *("rib", "rib-twice", "rib-1", "rib-1-back", "rib+1"),
+    ],
 )
 def test_simulator_knit_runs_stop_where_a_knit_needs_a_look(prog: MachineProgram) -> None:
     """A plain-knit run (`Simulator._knit_run`) stops before the knit whose needle needs the

@@ -59,6 +59,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
+from collections.abc import Iterable
 from typing import Any
 
 from knitc.codegen.machine import (
@@ -518,50 +519,63 @@ class Simulator:
         not looked at again.
 
         In a plain pass (most of every program) the fast path's knits differ only in their
-        needle, so what each checks is a comparison against its neighbour in the run (the
-        same bed, the same direction, one or more needles on, within the float limit, a
-        needle not yet knitted in the pass) and a look at its needle (loops to knit through,
-        not missed too often, not a cast-on loop); the state changes are the fast path's,
-        made for the whole run at once: its loops are a chain of yarn neighbours, each
-        replacing the loops of its needle. A run stops before the first op that differs in
-        any of these (that op takes the usual way); the W806 bookkeeping of reverse stitches
-        in progress, an inserting hook and an open transfer pass keep every op on it."""
+        needle, so what each checks is a comparison against the knit before it (the same
+        direction and yarn, on a hook bed, not back against the pass, within the float
+        limit, a needle not yet knitted in the pass) and a look at its needle (loops to
+        knit through, not missed too often, not a cast-on loop); the state changes are the
+        fast path's, made for the whole run at once: each loop replaces the loops of its
+        needle and is the yarn neighbour of the one before it when both are on one bed (a
+        rib's or a jacquard's run goes from bed to bed). A run stops before the first op
+        that differs in any of these (that op takes the usual way); the W806 bookkeeping of
+        reverse stitches in progress, an inserting hook and an open transfer pass keep
+        every op on it."""
         ops = self.prog.ops
         first = ops[i]
         d, cs, (bed, idx) = first.dir, first.carriers, first.needle  # type: ignore[misc]
-        # a glance first: the next knits of a run go the same way, with the same yarn, on
-        # the same bed (a rib's or a cable's short runs stop here, at little cost)
+        # a glance first: the next knits of a run go the same way with the same yarn (a
+        # lace's or a cable's short runs between transfers stop here, at little cost)
         for j, o in enumerate(ops[i + 1 : i + 1 + SHORT_RUN], i + 1):
-            if o.kind != "knit" or o.dir != d or o.carriers != cs or o.needle[0] != bed:  # type: ignore[index]
+            if o.kind != "knit" or o.dir != d or o.carriers != cs:
                 return i + 1, j
         if self.rev_stacked or self.rev_knit or self.hook or self._moved:
             return i + 1, i + 1
-        front = bed == "f"
-        machine, verified = self.machine, self.verified
+        machine, verified, r = self.machine, self.verified, self.racking
         lo = self.bed_lo
         hi = lo + machine.needles - 1
         max_float, max_misses = self.max_float, self.max_misses
-        touched = self._pass_touched[front]
         loops_get = self.loops.get
         missed, cast_on_live = self.missed, self.cast_on_live
         needles: list[Needle] = []
-        idxs: list[int] = []
-        prev = idx
+        prev_pos: float = idx if bed == "f" else idx + r
+        # the last needle of each bed in the run (a pass only goes on along a bed); at the
+        # start, a needle every one is beyond
+        far = -d * (1 << 40)
+        last_f, last_b = (idx, far) if bed == "f" else (far, idx)
+        touched_f, touched_b = self._pass_touched[True], self._pass_touched[False]
         j, end = i + 1, len(ops)
         while j < end:
             o = ops[j]
             if o.kind != "knit" or o.dir != d or o.carriers != cs:
                 break
             n = o.needle
-            if n is None or n[0] != bed:
+            if n is None:
                 break
-            k = n[1]
-            step = (k - prev) * d
+            b, k = n
+            pos: float
+            if b == "f":
+                if (k - last_f) * d <= 0 or k in touched_f:
+                    break
+                pos = last_f = k  # (used only if the run goes on)
+            elif b == "b":
+                if (k - last_b) * d <= 0 or k in touched_b:
+                    break
+                last_b = k
+                pos = k + r
+            else:
+                break
             if (
-                step <= 0
-                or step > max_float
+                not 0 <= (pos - prev_pos) * d <= max_float  # (on with the pass; W803)
                 or not lo <= k <= hi
-                or k in touched
                 or not loops_get(n, 0)
                 or (missed and missed.get(n, 0) > max_misses)
                 or (cast_on_live and n in cast_on_live)
@@ -569,17 +583,29 @@ class Simulator:
             ):
                 break
             needles.append(n)
-            idxs.append(k)
-            prev = k
+            prev_pos = pos
             j += 1
         if len(needles) < SHORT_RUN:
             return i + 1, j
         c = cs[0]
-        # _in_pass: the needles knitted, the pass's span on this bed, where the carrier is
-        touched.update(idxs)
-        span = self._pass_span[front]
-        span[0], span[1] = min(span[0], idxs[0], prev), max(span[1], idxs[0], prev)
-        self._pass_pos = prev if front else prev + self.racking
+        count = len(needles)
+        one_bed = all(n[0] == bed for n in needles)  # (most runs: a plain pass's)
+        fronts = [bed == "f"] * count if one_bed else [n[0] == "f" for n in needles]
+        # _in_pass: the needles knitted and the pass's span on each bed, where it is
+        for front, touched in ((True, touched_f), (False, touched_b)):
+            if one_bed and front != (bed == "f"):
+                continue
+            ks = [n[1] for n, f in zip(needles, fronts, strict=True) if f == front]
+            if not ks:
+                continue
+            touched.update(ks)
+            span = self._pass_span.get(front)
+            a, z = min(ks[0], ks[-1]), max(ks[0], ks[-1])
+            if span is None:
+                self._pass_span[front] = [a, z]
+            else:
+                span[0], span[1] = min(span[0], a), max(span[1], z)
+        self._pass_pos = prev_pos
         # _use and _loop's carrier loop
         self.last_use[c] = j - 1
         self.anchor[c] = needles[-1]
@@ -594,19 +620,31 @@ class Simulator:
         for n in needles:
             for x in pop(n, ()):
                 loop_at[x] = None
-        # _new_loop of each: the previous op's loop is its yarn neighbour (on this bed)
+        # _new_loop of each: the loop before it is its yarn neighbour if on the same bed
         x0 = len(loop_at)
-        count = len(needles)
-        gaps = [abs(b - a) for a, b in zip([idx, *idxs], idxs)]
-        self.loop_next[x0 - 1] = x0  # (op i's loop: the last made, with no next yet)
-        self.loop_next_d[x0 - 1] = gaps[0]
+        if one_bed:
+            ks = [n[1] for n in needles]
+            gaps = [abs(b - a) for a, b in zip([idx, *ks], ks)]
+            prevs: Iterable[int] = range(x0 - 1, x0 + count - 1)
+            nexts: Iterable[int] = range(x0 + 1, x0 + count)
+        else:
+            gaps = [
+                abs(b[1] - a[1]) if a[0] == b[0] else -1
+                for a, b in zip([Needle(bed, idx), *needles], needles)
+            ]
+            prevs = [x - 1 if g >= 0 else -1 for x, g in enumerate(gaps, x0)]
+            nexts = [x + 1 if g >= 0 else -1 for x, g in enumerate(gaps[1:], x0)]
+        if gaps[0] >= 0:  # (op i's loop: the last made, with no next yet)
+            self.loop_next[x0 - 1] = x0
+            self.loop_next_d[x0 - 1] = gaps[0]
         loop_at.extend(needles)
-        self.loop_front.extend([front] * count)
-        self.loop_prev.extend(range(x0 - 1, x0 + count - 1))
+        self.loop_front.extend(fronts)
+        self.loop_prev.extend(prevs)
         self.loop_prev_d.extend(gaps)
-        self.loop_next.extend(range(x0 + 1, x0 + count))
+        nxt = gaps[1:]
+        self.loop_next.extend(nexts)
         self.loop_next.append(-1)
-        self.loop_next_d.extend(gaps[1:])
+        self.loop_next_d.extend(nxt)
         self.loop_next_d.append(-1)
         on_needle.update(zip(needles, ([x] for x in range(x0, x0 + count))))
         self.last_loop[c] = x0 + count - 1
@@ -865,7 +903,7 @@ class Simulator:
         if self._pass_key is None:
             return
         self._pass_key = None
-        loops, missed = self.loops, self.missed
+        loops, missed, new = self.loops, self.missed, tuple.__new__
         for front, (lo, hi) in self._pass_span.items():
             if hi - lo < 2:
                 continue
@@ -873,7 +911,9 @@ class Simulator:
             touched = self._pass_touched[front]
             for k in range(lo + 1, hi):
                 if k not in touched:
-                    n = Needle(bed, k)
+                    # (a Needle made as the tuple it is: a fair isle yarn's pass passes
+                    # over every needle of the other yarns, 200k on a jacquard sheet)
+                    n = new(Needle, (bed, k))
                     if n in loops:
                         missed[n] = missed.get(n, 0) + 1
         self._pass_span = {}
