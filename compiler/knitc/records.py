@@ -17,8 +17,11 @@ values in C, as quickly as the generated code does):
   its body defines one;
 - `repr`: ``Name(a=1, b='x')`` of the fields with `repr=True`, ``...`` when it recurs;
 - `frozen`: each field is written once, by `__init__` on the new instance; any later
-  assignment or deletion raises `dataclasses.FrozenInstanceError`. (`__post_init__` sets
-  derived fields with `object.__setattr__`, as with a frozen dataclass.)
+  assignment or deletion raises `dataclasses.FrozenInstanceError`, as does setting a name
+  that is not a field. (`__post_init__` sets derived fields with `object.__setattr__`, as
+  with a frozen dataclass; the one difference: a field that `__init__` leaves unset, one
+  with `init=False` and no default, can be set once later, where a frozen dataclass would
+  refuse. knitc's such fields are all set in `__post_init__`.)
 
 A method the class body defines itself is kept, as the dataclass decorator keeps it.
 """
