@@ -138,22 +138,16 @@ def represented_one(g, sl, k, made, end):
     here = set(st.tolist())
     own, parents = [], {0: [], 1: []}
     for i, (s, x) in enumerate(zip(st.tolist(), state.tolist(), strict=True)):
-        if x != SUSPENDED and x != ACTIVE:  # (EXPECTED: its loops come from its parents)
-            for j in (0, 1):
-                p = int(g.wale_prev[s, j])
-                if p >= 0:
-                    first = int(g.wale_next[p, 0])
-                    if first == s or max(first, 0) not in here:
-                        parents[j].append((p, a + i))
+        if x in (SUSPENDED, ACTIVE):  # a loop of its own (made here, or waiting)
+            own.append((s, a + i))
+        if x == SUSPENDED:  # (an EXPECTED or ACTIVE stitch takes in its parents' loops)
             continue
-        own.append((s, a + i))
-        if x == ACTIVE:
-            for j in (0, 1):
-                p = int(g.wale_prev[s, j])
-                if p >= 0:
-                    first = int(g.wale_next[p, 0])
-                    if first == s or max(first, 0) not in here:
-                        parents[j].append((p, a + i))
+        for j in (0, 1):
+            p = int(g.wale_prev[s, j])
+            if p >= 0:
+                first = int(g.wale_next[p, 0])
+                if first == s or max(first, 0) not in here:
+                    parents[j].append((p, a + i))
     pairs = [(lo, en) for lo, en in own + parents[0] + parents[1] if made[lo] <= k <= end[lo]]
     return [lo for lo, _ in pairs], [en for _, en in pairs]
 
