@@ -337,7 +337,6 @@ class Simulator:
         upto = 0  # ops before this one were simulated in bulk (`_knit_run`)
         short = 0  # ... and those before this one are a run too short to be worth it
         ops = self.prog.ops
-        last = len(ops) - 1
         for i, op in enumerate(ops):
             if i < upto:
                 continue
@@ -479,7 +478,7 @@ class Simulator:
                         # a run is looked for where one can start: at the start of a pass
                         # or after another kind of op (in a rib's or a cable's pass, where
                         # the bed changes every few knits, there is none to find)
-                        if i >= short and i < last and (new_pass or ops[i - 1].kind != "knit"):
+                        if i >= short and (new_pass or ops[i - 1].kind != "knit"):
                             upto, short = self._knit_run(i)
                     else:
                         on_needle.setdefault(n, []).append(x)
@@ -589,18 +588,23 @@ class Simulator:
             return i + 1, j
         c = cs[0]
         count = len(needles)
+        ks = [n[1] for n in needles]
         one_bed = all(n[0] == bed for n in needles)  # (most runs: a plain pass's)
         fronts = [bed == "f"] * count if one_bed else [n[0] == "f" for n in needles]
+        by_bed = (
+            [(bed == "f", ks)]
+            if one_bed
+            else [
+                (f, [k for k, x in zip(ks, fronts, strict=True) if x == f]) for f in (True, False)
+            ]
+        )
         # _in_pass: the needles knitted and the pass's span on each bed, where it is
-        for front, touched in ((True, touched_f), (False, touched_b)):
-            if one_bed and front != (bed == "f"):
+        for front, on_bed in by_bed:
+            if not on_bed:
                 continue
-            ks = [n[1] for n, f in zip(needles, fronts, strict=True) if f == front]
-            if not ks:
-                continue
-            touched.update(ks)
+            self._pass_touched[front].update(on_bed)
+            a, z = min(on_bed[0], on_bed[-1]), max(on_bed[0], on_bed[-1])
             span = self._pass_span.get(front)
-            a, z = min(ks[0], ks[-1]), max(ks[0], ks[-1])
             if span is None:
                 self._pass_span[front] = [a, z]
             else:
@@ -623,7 +627,6 @@ class Simulator:
         # _new_loop of each: the loop before it is its yarn neighbour if on the same bed
         x0 = len(loop_at)
         if one_bed:
-            ks = [n[1] for n in needles]
             gaps = [abs(b - a) for a, b in zip([idx, *ks], ks)]
             prevs: Iterable[int] = range(x0 - 1, x0 + count - 1)
             nexts: Iterable[int] = range(x0 + 1, x0 + count)
@@ -641,10 +644,9 @@ class Simulator:
         self.loop_front.extend(fronts)
         self.loop_prev.extend(prevs)
         self.loop_prev_d.extend(gaps)
-        nxt = gaps[1:]
         self.loop_next.extend(nexts)
         self.loop_next.append(-1)
-        self.loop_next_d.extend(nxt)
+        self.loop_next_d.extend(gaps[1:])
         self.loop_next_d.append(-1)
         on_needle.update(zip(needles, ([x] for x in range(x0, x0 + count))))
         self.last_loop[c] = x0 + count - 1
